@@ -1,0 +1,107 @@
+"""The ``dance`` subcommands (heavy imports stay inside each function)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from argparse import Namespace
+
+
+def _recipe(args: Namespace, extra: list[str] = ()):
+    from dance_core.recipe import load_recipe
+
+    return load_recipe(args.recipe, [*args.sets, *extra])
+
+
+def compose(args: Namespace) -> int:
+    """``dance compose``."""
+    from dance_core.compose import compose as run
+
+    extra = []
+    for field, value in (("samples", args.samples), ("temperature", args.temperature),
+                         ("seconds", args.seconds), ("seed_motion", args.seed_motion)):
+        if value is not None:
+            extra.append(f"compose.{field}={value}")
+    if args.formats:
+        extra.append(f"compose.formats={json.dumps(args.formats)}")
+    recipe = _recipe(args, extra)
+    written = run(recipe, music=args.music, checkpoint=args.checkpoint, out_dir=args.out, quiet=args.quiet)
+    for path in written:
+        print(path)
+    return 0
+
+
+def train(args: Namespace) -> int:
+    """``dance train``."""
+    from dance_core.train import train as run
+
+    result = run(_recipe(args), out=args.out, resume=args.resume, quiet=args.quiet)
+    val = f", validation loss {result.val_loss:.4f}" if result.val_loss is not None else ""
+    print(f"trained {result.steps} steps: loss {result.first_loss:.4f} -> {result.last_loss:.4f}{val}")
+    print(result.checkpoint)
+    return 0
+
+
+def plugins(args: Namespace) -> int:
+    """``dance plugins``: every component by kind, with its plugin and version."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from dance_core.registry import KINDS, get_registry
+
+    registry = get_registry()
+    if args.json:
+        data = {kind: [{"name": e.name, "plugin": e.plugin, "distribution": e.distribution,
+                        "version": e.version, "description": e.description}
+                       for e in registry.entries(kind)] for kind in KINDS}
+        print(json.dumps(data, indent=2))
+        return 0
+    table = Table(title="dance components")
+    for column in ("kind", "name", "plugin", "distribution", "version"):
+        table.add_column(column, no_wrap=True)
+    table.add_column("description", overflow="fold")
+    for kind in KINDS:
+        for e in registry.entries(kind):
+            table.add_row(kind, e.name, e.plugin, e.distribution, e.version, e.description)
+    Console().print(table)
+    return 0
+
+
+def recipe_validate(args: Namespace) -> int:
+    """``dance recipe validate``."""
+    recipe = _recipe(args)
+    parts = ", ".join(f"{kind} {spec.plugin}" for kind, _, spec in recipe.components())
+    print(f"{recipe._origin}: ok ({recipe.name}: {parts})")
+    return 0
+
+
+def recipe_show(args: Namespace) -> int:
+    """``dance recipe show``: the resolved recipe as YAML."""
+    import yaml
+
+    data = _recipe(args).model_dump(mode="json", exclude={"extends"})
+    sys.stdout.write(yaml.safe_dump(data, sort_keys=False))
+    return 0
+
+
+def recipe_schema(args: Namespace) -> int:
+    """``dance recipe schema``."""
+    from dance_core.atomic import write_text
+    from dance_core.recipe.jsonschema import recipe_json_schema
+    from dance_core.registry import get_registry
+
+    text = json.dumps(recipe_json_schema(get_registry()), indent=2) + "\n"
+    if args.out:
+        write_text(args.out, text)
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+def recipe_list(args: Namespace) -> int:
+    """``dance recipe list``."""
+    from dance_core.registry import get_registry
+
+    for e in get_registry().entries("recipe"):
+        print(f"{e.name:24} {e.distribution:12} {e.description}")
+    return 0

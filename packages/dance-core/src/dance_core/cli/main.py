@@ -1,0 +1,98 @@
+"""``dance``: argument parsing and error reporting; each command lives in its own small module."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from dance_core.cli import commands
+
+
+class Parser(argparse.ArgumentParser):
+    """An argparse parser whose usage errors are one line on stderr, exit code 2."""
+
+    def error(self, message: str):  # noqa: D102 - argparse hook
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _sets(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--set", dest="sets", action="append", default=[], metavar="FIELD=VALUE",
+                   help="override a recipe field, e.g. --set training.steps=100")
+
+
+def build_parser() -> Parser:
+    """The full argument parser."""
+    from importlib.metadata import version
+
+    parser = Parser(prog="dance", description="Music (and text) to 3D dance motion.")
+    parser.add_argument("--version", action="version", version=f"dance {version('dance-core')}")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks for errors")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
+
+    p = sub.add_parser("compose", help="write dances for songs with a trained model")
+    p.add_argument("recipe", help="recipe file or bundled recipe name")
+    p.add_argument("--music", nargs="+", help="songs to dance to (default: compose.music)")
+    p.add_argument("--checkpoint", help="model checkpoint (default: compose.checkpoint)")
+    p.add_argument("-o", "--out", help="output folder (default: compose.out_dir)")
+    p.add_argument("--samples", type=int, help="dances per song")
+    p.add_argument("--temperature", type=float, help="sampling temperature")
+    p.add_argument("--seconds", type=float, help="length of each dance in seconds")
+    p.add_argument("--seed-motion", help="motion file to start from, or 'rest'")
+    p.add_argument("--format", dest="formats", action="append", help="output format (repeatable)")
+    _sets(p)
+    p.set_defaults(run=commands.compose)
+
+    p = sub.add_parser("train", help="train a recipe's model")
+    p.add_argument("recipe", help="recipe file or bundled recipe name")
+    p.add_argument("-o", "--out", help="run folder (default: training.output)")
+    p.add_argument("--resume", action="store_true", help="continue the run in the run folder")
+    _sets(p)
+    p.set_defaults(run=commands.train)
+
+    p = sub.add_parser("plugins", help="list installed components by kind")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(run=commands.plugins)
+
+    rp = sub.add_parser("recipe", help="validate, show, list recipes or print their schema")
+    rsub = rp.add_subparsers(dest="recipe_command", metavar="ACTION", parser_class=Parser, required=True)
+    for name, fn, text in (
+        ("validate", commands.recipe_validate, "check a recipe and its components' options"),
+        ("show", commands.recipe_show, "print the resolved recipe"),
+    ):
+        p = rsub.add_parser(name, help=text)
+        p.add_argument("recipe", help="recipe file or bundled recipe name")
+        _sets(p)
+        p.set_defaults(run=fn)
+    p = rsub.add_parser("schema", help="print the JSON Schema of recipes")
+    p.add_argument("-o", "--out", help="write to a file instead of stdout")
+    p.set_defaults(run=commands.recipe_schema)
+    p = rsub.add_parser("list", help="list bundled recipes")
+    p.set_defaults(run=commands.recipe_list)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``dance`` script."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    from dance_core.errors import DanceError
+
+    try:
+        return args.run(args) or 0
+    except DanceError as exc:
+        if args.debug:
+            raise
+        for line in str(exc).splitlines() or [type(exc).__name__]:
+            print(f"dance: error: {line}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("dance: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

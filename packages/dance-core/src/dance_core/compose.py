@@ -1,0 +1,152 @@
+"""The composition loop behind ``dance compose``: music in, motion files out."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from dance_core.checkpoint import Checkpoint, check_matches, load_checkpoint, load_weights
+from dance_core.data.features import FeatureStack, load_audio
+from dance_core.errors import DanceError, DataError, RecipeError
+from dance_core.media import frame_count
+from dance_core.model import ComposedModel, build_model
+from dance_core.protocols import MotionData
+from dance_core.recipe.schema import Recipe
+from dance_core.registry import Registry, get_registry
+from dance_core.runtime import pick_device, progress_bar
+
+
+@dataclass
+class Song:
+    """One song's name, features and frame count."""
+
+    name: str
+    streams: dict[str, np.ndarray]
+    n_frames: int
+
+
+def motion_format(name: str, registry: Registry):
+    """A registered motion format by name (``npz``) or by suffix (``.npz``)."""
+    for entry in registry.entries("motion-format"):
+        if name == entry.name or name.lower() in entry.info.get("suffixes", ()):
+            return entry, entry.build()
+    return registry.get("motion-format", name), None  # raises with close matches
+
+
+def read_motion(path: str | Path, registry: Registry) -> MotionData:
+    """Read a motion file with the format registered for its suffix."""
+    path = Path(path)
+    entry, fmt = motion_format(path.suffix.lower() or path.name, registry)
+    return fmt.read(str(path))
+
+
+def seed_motion(spec: str | None, ckpt: Checkpoint, frames: int, registry: Registry) -> np.ndarray:
+    """Normalized seed ``(frames, D)``: the mean pose for ``rest``/None, else a motion file."""
+    dim = ckpt.motion["dim"]
+    if spec in (None, "rest"):
+        return np.zeros((frames, dim), np.float32)
+    motion = read_motion(spec, registry)
+    if motion.values.shape[1] != dim:
+        raise DataError(f"{spec}: seed motion has {motion.values.shape[1]} channels, the model {dim}")
+    if abs(motion.fps - ckpt.motion["fps"]) > 1e-6:
+        raise DataError(f"{spec}: seed motion is at {motion.fps:g} fps, the model at {ckpt.motion['fps']:g}")
+    values = ckpt.stats.motion.apply(motion.values)
+    if len(values) < frames:
+        values = np.concatenate([np.repeat(values[:1], frames - len(values), axis=0), values])
+    return values[len(values) - frames :]
+
+
+def load_song(path: str, stack: FeatureStack, ckpt: Checkpoint, seconds: float | None, registry: Registry) -> Song:
+    """Features of one song, standardized with the checkpoint's statistics."""
+    audio = load_audio(path, registry)
+    n_audio = audio.n_frames(stack.fps)
+    raw = stack.extract(n_audio, audio)
+    n = frame_count(seconds, stack.fps) if seconds else n_audio
+    streams = {}
+    for name, values in raw.items():
+        if name not in ckpt.stats.streams:
+            raise DataError(f"{path}: feature stream {name!r} has no statistics in {ckpt.path}")
+        values = ckpt.stats.streams[name].apply(values)
+        if n > len(values):
+            values = np.concatenate([values, np.repeat(values[-1:], n - len(values), axis=0)])
+        streams[name] = values[:n]
+    return Song(Path(path).stem, streams, n)
+
+
+def load_model(recipe: Recipe, checkpoint: str | Path, device: torch.device) -> tuple[ComposedModel, Checkpoint, FeatureStack]:
+    """Build the recipe's model and load a checkpoint that matches it."""
+    ckpt = load_checkpoint(checkpoint)
+    check_matches(ckpt, recipe)
+    stack = FeatureStack(recipe)
+    model = build_model(recipe, ckpt.motion["dim"], stack.dims())
+    load_weights(model, ckpt)
+    return model.to(device).eval(), ckpt, stack
+
+
+def compose(
+    recipe: Recipe,
+    music: list[str] | None = None,
+    checkpoint: str | None = None,
+    out_dir: str | None = None,
+    quiet: bool = False,
+) -> list[Path]:
+    """Generate ``compose.samples`` dances per song and write them in every format asked for."""
+    c = recipe.compose
+    registry = get_registry()
+    checkpoint = checkpoint or (recipe.resolve_path(c.checkpoint) if c.checkpoint else None)
+    if checkpoint is None:
+        raise RecipeError(f"{recipe._origin}: compose.checkpoint: no model given (or pass --checkpoint)")
+    songs_in = music or [recipe.resolve_path(m) for m in c.music]
+    if not songs_in:
+        raise RecipeError(f"{recipe._origin}: compose.music: no song given (or pass --music)")
+    formats = [motion_format(f, registry) for f in c.formats]
+    device = pick_device(c.device)
+    model, ckpt, stack = load_model(recipe, checkpoint, device)
+    songs = [load_song(p, stack, ckpt, c.seconds, registry) for p in songs_in]
+    start = model.start_frames()
+    seed = torch.from_numpy(seed_motion(c.seed_motion, ckpt, start, registry))
+    total = max(s.n_frames for s in songs)
+    streams = {
+        name: torch.from_numpy(
+            np.stack([_pad_to(s.streams[name], total) for s in songs for _ in range(c.samples)])
+        ).to(device)
+        for name in songs[0].streams
+    }
+    batch = len(songs) * c.samples
+    generator = torch.Generator(device=device).manual_seed(recipe.seed)
+    torch.manual_seed(recipe.seed)
+    with progress_bar(quiet) as bar:
+        task = bar.add_task("compose", total=total, info=f"{len(songs)} song(s) × {c.samples}") if bar else None
+        motion = model.generate(
+            streams,
+            total,
+            seed.unsqueeze(0).expand(batch, -1, -1).to(device),
+            temperature=c.temperature,
+            keep=c.keep,
+            generator=generator,
+            progress=(lambda t: bar.update(task, completed=t)) if bar else None,
+        )
+    motion = motion.float().cpu().numpy()
+    if not np.all(np.isfinite(motion)):
+        raise DanceError(f"{checkpoint}: the model produced NaN or inf motion; nothing was written")
+    out = Path(out_dir or c.out_dir)
+    written = []
+    for i, song in enumerate(songs):
+        for k in range(c.samples):
+            values = ckpt.stats.motion.invert(motion[i * c.samples + k, : song.n_frames])
+            data = MotionData(values, recipe.fps, ckpt.motion.get("channels"))
+            stem = song.name if c.samples == 1 else f"{song.name}-{k}"
+            for entry, fmt in formats:
+                path = out / f"{stem}{entry.info.get('suffixes', ('.' + entry.name,))[0]}"
+                fmt.write(data, str(path))
+                written.append(path)
+    return written
+
+
+def _pad_to(values: np.ndarray, n: int) -> np.ndarray:
+    if len(values) >= n:
+        return values[:n]
+    return np.concatenate([values, np.repeat(values[-1:], n - len(values), axis=0)])

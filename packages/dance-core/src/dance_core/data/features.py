@@ -1,0 +1,78 @@
+"""Audio loading through registered readers, and the recipe's stacks of feature extractors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from dance_core.errors import DataError
+from dance_core.media import Audio, FeatureInputs, TextSpan
+from dance_core.recipe.schema import Recipe
+from dance_core.registry import Registry
+
+MIN_SECONDS = 0.5
+
+
+def audio_reader_for(path: Path, registry: Registry):
+    """The registered audio reader for a file suffix."""
+    suffix = path.suffix.lower()
+    for entry in registry.entries("audio-reader"):
+        if suffix in entry.info.get("suffixes", ()):
+            return entry.build()
+    known = sorted({s for e in registry.entries("audio-reader") for s in e.info.get("suffixes", ())})
+    raise DataError(
+        f"{path}: no audio reader for {suffix or 'files without a suffix'!r} "
+        f"(readable: {', '.join(known)}; install dance-audio for more formats)"
+    )
+
+
+def load_audio(path: str | Path, registry: Registry) -> Audio:
+    """Read a music file; missing, empty or too-short files are one-line errors."""
+    path = Path(path)
+    if not path.exists():
+        raise DataError(f"{path}: audio file not found")
+    if path.is_dir():
+        raise DataError(f"{path}: is a folder, not an audio file")
+    if path.stat().st_size == 0:
+        raise DataError(f"{path}: audio file is empty")
+    audio = audio_reader_for(path, registry).read(str(path))
+    if audio.duration < MIN_SECONDS:
+        raise DataError(f"{path}: audio is {audio.duration:.2f} s long; at least {MIN_SECONDS} s needed")
+    return audio
+
+
+class FeatureStack:
+    """The recipe's ``features:``: per stream, extractors whose outputs are concatenated."""
+
+    def __init__(self, recipe: Recipe):
+        self.fps = recipe.fps
+        self.streams = {
+            name: [(spec.plugin, spec.build()) for spec in specs]
+            for name, specs in recipe.features.items()
+        }
+
+    def dims(self) -> dict[str, int]:
+        """Width of every stream."""
+        return {name: sum(x.dim() for _, x in exts) for name, exts in self.streams.items()}
+
+    def extract(
+        self, n_frames: int, audio: Audio | None = None, texts: tuple[TextSpan, ...] = ()
+    ) -> dict[str, np.ndarray]:
+        """Every stream, ``(n_frames, dim)`` float32; non-finite output is an error naming the extractor."""
+        inputs = FeatureInputs(n_frames=n_frames, audio=audio, texts=tuple(texts))
+        out = {}
+        for name, extractors in self.streams.items():
+            parts = []
+            for plugin, extractor in extractors:
+                values = np.asarray(extractor.extract(inputs, self.fps), dtype=np.float32)
+                if values.shape != (n_frames, extractor.dim()):
+                    raise DataError(
+                        f"feature {plugin!r} returned {values.shape}, expected {(n_frames, extractor.dim())}"
+                    )
+                if not np.all(np.isfinite(values)):
+                    where = audio.path if audio is not None and audio.path else "input"
+                    raise DataError(f"{where}: feature {plugin!r} produced NaN or inf")
+                parts.append(values)
+            out[name] = np.concatenate(parts, axis=1) if parts else np.zeros((n_frames, 0), np.float32)
+        return out

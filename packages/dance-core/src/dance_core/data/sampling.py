@@ -1,0 +1,59 @@
+"""Train/validation split by clip, and segment batches drawn by a per-step seeded generator."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from dance_core.data.sources import Clip
+from dance_core.errors import DataError
+
+
+def split_clips(clips: list[Clip], val_fraction: float, seed: int) -> tuple[list[Clip], list[Clip]]:
+    """Hold out whole clips (songs) for validation; at least one on each side when possible."""
+    order = np.random.default_rng([seed, 7]).permutation(len(clips))
+    n_val = int(round(len(clips) * val_fraction))
+    if val_fraction > 0 and len(clips) > 1:
+        n_val = min(max(n_val, 1), len(clips) - 1)
+    else:
+        n_val = 0
+    val = [clips[i] for i in sorted(order[:n_val])]
+    train = [clips[i] for i in sorted(order[n_val:])]
+    return train, val
+
+
+class SegmentSampler:
+    """Batches of aligned segments; batch ``k`` depends only on (seed, k), so resuming replays it."""
+
+    def __init__(self, clips: list[Clip], length: int, batch_size: int, seed: int, what: str = "training"):
+        self.length = length
+        self.batch_size = batch_size
+        self.seed = seed
+        self.clips = [c for c in clips if len(c) >= length]
+        if not self.clips:
+            longest = max((len(c) for c in clips), default=0)
+            raise DataError(
+                f"no {what} clip is long enough for segments of {length} frames "
+                f"(longest has {longest}); use longer clips or smaller windows"
+            )
+        valid = np.array([len(c) - length + 1 for c in self.clips], dtype=np.float64)
+        self.valid = valid.astype(np.int64)
+        self.weights = valid / valid.sum()
+
+    def windows(self) -> int:
+        """How many distinct segments exist (the size of an epoch, in segments)."""
+        return int(self.valid.sum())
+
+    def batch(self, index: int, device: torch.device | str = "cpu"):
+        """Batch ``index``: motion ``(B, L, D)`` and streams ``{name: (B, L, C)}``."""
+        rng = np.random.default_rng([self.seed, index])
+        picks = rng.choice(len(self.clips), size=self.batch_size, p=self.weights)
+        starts = rng.integers(0, self.valid[picks])
+        sl = [slice(int(s), int(s) + self.length) for s in starts]
+        motion = np.stack([self.clips[p].motion[s] for p, s in zip(picks, sl, strict=True)])
+        names = self.clips[0].streams.keys()
+        streams = {
+            n: torch.from_numpy(np.stack([self.clips[p].streams[n][s] for p, s in zip(picks, sl, strict=True)])).to(device)
+            for n in names
+        }
+        return torch.from_numpy(motion).to(device), streams

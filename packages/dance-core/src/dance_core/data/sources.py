@@ -1,0 +1,34 @@
+"""What datasets yield (``ClipSource``) and what training uses (``Clip``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from dance_core.media import Audio, TextSpan
+from dance_core.protocols import MotionData
+
+
+@dataclass
+class ClipSource:
+    """One dance: its motion, its music (in memory or as a file) and optional timed text."""
+
+    name: str
+    motion: MotionData
+    audio: Audio | None = None
+    audio_path: str | None = None
+    texts: tuple[TextSpan, ...] = ()
+    meta: dict = field(default_factory=dict)
+
+
+@dataclass
+class Clip:
+    """Motion and feature streams cropped to one common frame count at the recipe's fps."""
+
+    name: str
+    motion: np.ndarray
+    streams: dict[str, np.ndarray]
+
+    def __len__(self) -> int:
+        return len(self.motion)

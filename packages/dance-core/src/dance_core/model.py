@@ -1,0 +1,151 @@
+"""The composed model: conditioners -> encoder -> head, with one training loss and one generator."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from dance_core.errors import RecipeError
+from dance_core.protocols import TrainContext
+from dance_core.recipe.schema import Recipe
+
+
+def build_model(recipe: Recipe, motion_dim: int, stream_dims: Mapping[str, int]) -> ComposedModel:
+    """Build every component named by the recipe's ``model:`` and chain them."""
+    conditioners = {}
+    for name, spec in recipe.model.conditioners.items():
+        if name not in stream_dims:
+            raise RecipeError(
+                f"{recipe._origin}: model.conditioners.{name}: no feature stream {name!r} "
+                f"(streams: {', '.join(stream_dims) or 'none'})"
+            )
+        conditioners[name] = _build(spec, f"model.conditioners.{name}", input=name, in_dim=stream_dims[name])
+    cond_dims = {n: conditioners[n].out_dim if n in conditioners else d for n, d in stream_dims.items()}
+    encoder = _build(recipe.model.encoder, "model.encoder", motion_dim=motion_dim, cond_dims=cond_dims)
+    head = _build(
+        recipe.model.head,
+        "model.head",
+        motion_dim=motion_dim,
+        latent_dim=encoder.out_dim,
+        latent_tokens=encoder.latent_tokens,
+        window=encoder.window,
+    )
+    want = getattr(head, "latent_tokens", None)
+    if not encoder.window.song_level and want is not None and want != encoder.latent_tokens:
+        raise RecipeError(
+            f"{recipe._origin}: model.head: {recipe.model.head.plugin} needs {want} latent tokens "
+            f"but {recipe.model.encoder.plugin} gives {encoder.latent_tokens}"
+        )
+    return ComposedModel(conditioners, encoder, head)
+
+
+def _build(spec, where: str, **context: Any):
+    try:
+        return spec.build(**context)
+    except (ValueError, TypeError) as exc:
+        raise RecipeError(f"{where}: {spec.plugin}: {exc}") from exc
+
+
+def _edge_pad(x: torch.Tensor, before: int, after: int) -> torch.Tensor:
+    """Pad the time axis of ``(B, T, C)`` by repeating the first and last frames."""
+    if before == 0 and after == 0:
+        return x
+    return F.pad(x.transpose(1, 2), (before, after), mode="replicate").transpose(1, 2)
+
+
+class ComposedModel(nn.Module):
+    """Chains conditioners, an encoder and an output head; see docs/architecture.md."""
+
+    def __init__(self, conditioners: Mapping[str, nn.Module], encoder: nn.Module, head: nn.Module):
+        super().__init__()
+        self.conditioners = nn.ModuleDict(dict(conditioners))
+        self.encoder = encoder
+        self.head = head
+        self.window = encoder.window
+
+    def condition(self, streams: Mapping[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+        """Run each stream through its conditioner (streams without one pass through)."""
+        return {n: self.conditioners[n](x) if n in self.conditioners else x for n, x in streams.items()}
+
+    def _lead(self) -> int:
+        w = self.window
+        return max((w.cond_past or 0) - w.motion_past, 0)
+
+    def segment_frames(self, song_segment: int | None) -> int:
+        """Frames per training segment: the window plus the target, or ``data.segment_frames``."""
+        w, head = self.window, self.head
+        if w.song_level:
+            if song_segment is None:
+                raise RecipeError("data.segment_frames: required by a song-level encoder")
+            if song_segment <= head.history_frames:
+                raise RecipeError("data.segment_frames: must exceed the head's history frames")
+            return song_segment
+        return self._lead() + w.motion_past + max(head.frames, w.cond_future)
+
+    def training_loss(
+        self, motion: torch.Tensor, streams: Mapping[str, torch.Tensor], ctx: TrainContext
+    ) -> dict[str, torch.Tensor]:
+        """The head's losses on one batch of aligned segments."""
+        w, head = self.window, self.head
+        cond = self.condition(streams)
+        if w.song_level:
+            h = head.history_frames
+            latent = self.encoder(None, cond)
+            return head.loss(latent[:, h:], motion[:, h:], motion[:, :h], ctx)
+        t = self._lead() + w.motion_past
+        window = {n: x[:, t - w.cond_past : t + w.cond_future] for n, x in cond.items()}
+        latent = self.encoder(motion[:, t - w.motion_past : t], window)
+        target = motion[:, t : t + head.frames]
+        return head.loss(latent, target, motion[:, t - head.history_frames : t], ctx)
+
+    def start_frames(self) -> int:
+        """Frames the seed motion fills at the start of a generated dance."""
+        return max(self.window.motion_past, self.head.history_frames)
+
+    @torch.inference_mode()
+    def generate(
+        self,
+        streams: Mapping[str, torch.Tensor],
+        n_frames: int,
+        seed: torch.Tensor,
+        temperature: float = 1.0,
+        keep: int | None = None,
+        generator: torch.Generator | None = None,
+        progress: Callable[[int], None] | None = None,
+    ) -> torch.Tensor:
+        """Generate ``(B, n_frames, D)`` from streams ``(B, >=n_frames, C)`` and a seed ``(B, S, D)``."""
+        w, head = self.window, self.head
+        batch = seed.shape[0]
+        start = min(self.start_frames(), n_frames)
+        if seed.shape[1] < start:
+            raise ValueError(f"the seed motion needs {start} frames, got {seed.shape[1]}")
+        out = seed.new_zeros(batch, n_frames, seed.shape[2])
+        out[:, :start] = seed[:, seed.shape[1] - start :]
+        keep = min(keep or head.keep, head.frames)
+        streams = {n: x[:, :n_frames] for n, x in streams.items()}
+        state = head.init_state(batch, generator)
+        h = head.history_frames
+        if w.song_level:
+            cond = self.condition({n: _edge_pad(x, 0, head.frames) for n, x in streams.items()})
+            latent_all = self.encoder(None, cond)
+        else:
+            before, after = w.cond_past, w.cond_future + keep
+            cond = self.condition({n: _edge_pad(x, before, after) for n, x in streams.items()})
+        t = start
+        while t < n_frames:
+            if w.song_level:
+                latent = latent_all[:, t : t + head.frames]
+            else:
+                window = {n: x[:, t : t + w.cond_past + w.cond_future] for n, x in cond.items()}
+                latent = self.encoder(out[:, t - w.motion_past : t], window)
+            frames, state = head.step(latent, out[:, t - h : t], state, temperature, generator)
+            k = min(keep, n_frames - t)
+            out[:, t : t + k] = frames[:, :k]
+            t += k
+            if progress is not None:
+                progress(t)
+        return head.finish(out, state)

@@ -1,0 +1,185 @@
+"""The component protocols that every model family implements.
+
+Tensors are batch-first ``(B, T, C)`` and in normalized units. See docs/architecture.md.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from dance_core.media import Audio, FeatureInputs
+
+if TYPE_CHECKING:  # torch is imported lazily everywhere else
+    import torch
+
+
+@dataclass(frozen=True)
+class Window:
+    """What an encoder sees per step.
+
+    ``cond_past=None`` makes a *song-level* encoder: no motion, the whole conditioning sequence at
+    once, and a per-frame latent out. Otherwise the encoder sees ``motion_past`` motion frames
+    before step time ``t`` and conditioning frames ``[t - cond_past, t + cond_future)``.
+    """
+
+    motion_past: int = 0
+    cond_past: int | None = 0
+    cond_future: int = 0
+
+    @property
+    def song_level(self) -> bool:
+        """True when the encoder runs once over the whole song."""
+        return self.cond_past is None
+
+
+@dataclass
+class TrainContext:
+    """Where training stands, handed to every loss: step, epoch, stage and schedule values."""
+
+    step: int
+    epoch: int
+    stage: str = "main"
+    values: dict[str, float] = field(default_factory=dict)
+    generator: Any = None
+
+
+@runtime_checkable
+class Conditioner(Protocol):
+    """Per-frame embedding of one input stream: ``(B, T, in_dim) -> (B, T, out_dim)``."""
+
+    input: str
+    out_dim: int
+
+    def __call__(self, features: torch.Tensor) -> torch.Tensor:
+        """Embed one frame-aligned stream."""
+        ...
+
+
+@runtime_checkable
+class Encoder(Protocol):
+    """Conditioning streams (and past motion) to a latent ``(B, K, d)`` or ``(B, T, d)``."""
+
+    window: Window
+    latent_tokens: int | None
+    out_dim: int
+
+    def __call__(
+        self, motion: torch.Tensor | None, cond: Mapping[str, torch.Tensor]
+    ) -> torch.Tensor:
+        """Encode one window (or, for a song-level encoder, the whole sequence)."""
+        ...
+
+
+@runtime_checkable
+class OutputHead(Protocol):
+    """Latent to motion frames: a training loss and a sampling step."""
+
+    frames: int
+    keep: int
+    history_frames: int
+    latent_tokens: int | None
+
+    def loss(
+        self,
+        latent: torch.Tensor,
+        target: torch.Tensor,
+        history: torch.Tensor,
+        ctx: TrainContext,
+    ) -> dict[str, torch.Tensor]:
+        """Training losses; ``"loss"`` is the one optimized."""
+        ...
+
+    def init_state(self, batch: int, generator: torch.Generator | None) -> Any:
+        """Generation state before the first step (for instance an LSTM's h0)."""
+        ...
+
+    def step(
+        self,
+        latent: torch.Tensor,
+        history: torch.Tensor,
+        state: Any,
+        temperature: float,
+        generator: torch.Generator | None,
+    ) -> tuple[torch.Tensor, Any]:
+        """Sample the next ``frames`` frames ``(B, frames, D)`` and the new state."""
+        ...
+
+    def finish(self, motion: torch.Tensor, state: Any) -> torch.Tensor:
+        """Post-process the whole generated motion (identity for most heads)."""
+        ...
+
+
+@runtime_checkable
+class FeatureExtractor(Protocol):
+    """Audio and/or text to ``(n_frames, dim)`` float32 features at ``fps``."""
+
+    def dim(self) -> int:
+        """Feature width."""
+        ...
+
+    def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
+        """Features for ``inputs.n_frames`` frames; frame i describes time i / fps."""
+        ...
+
+
+@runtime_checkable
+class AudioReader(Protocol):
+    """Reads audio files of some suffixes (registered with ``suffixes=(...)``)."""
+
+    def read(self, path: str) -> Audio:
+        """Mono float32 samples and their rate."""
+        ...
+
+
+@dataclass
+class MotionData:
+    """Motion as a frame array ``(T, D)`` at ``fps``, with optional per-channel names."""
+
+    values: np.ndarray
+    fps: float
+    channels: Sequence[str] | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
+@runtime_checkable
+class MotionFormat(Protocol):
+    """Reads and writes one motion file format (registered with ``suffixes=(...)``)."""
+
+    def read(self, path: str) -> MotionData:
+        """Load a motion file."""
+        ...
+
+    def write(self, motion: MotionData, path: str) -> None:
+        """Write a motion file (atomically)."""
+        ...
+
+
+@runtime_checkable
+class Dataset(Protocol):
+    """A source of paired music and motion clips."""
+
+    def clips(self) -> Sequence[Any]:
+        """Every clip as a ``dance_core.data.ClipSource``."""
+        ...
+
+
+@runtime_checkable
+class Schedule(Protocol):
+    """A value as a function of training progress (LR multiplier, curriculum length...)."""
+
+    def __call__(self, step: int, epoch: int, total_steps: int) -> float:
+        """The value at this point of training."""
+        ...
+
+
+@runtime_checkable
+class Metric(Protocol):
+    """A score of generated motion, optionally against reference motion and music."""
+
+    def __call__(self, generated: Sequence[MotionData], **context: Any) -> dict[str, float]:
+        """Named values of the metric."""
+        ...

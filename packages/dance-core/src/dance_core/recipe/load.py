@@ -1,0 +1,191 @@
+"""Load a recipe: ``extends:``, ``--set`` overrides, validation, and one-line errors with lines."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from dance_core.errors import PluginError, RecipeError
+from dance_core.recipe.schema import Recipe
+from dance_core.recipe.yaml_source import Source, parse_file, parse_value
+from dance_core.registry import Registry, get_registry
+
+MAX_EXTENDS = 16
+
+
+def dotted(loc: tuple[Any, ...]) -> str:
+    """``('model', 'head', 'n_layers')`` -> ``model.head.n_layers``."""
+    return ".".join(str(part) for part in loc)
+
+
+class SourceMap:
+    """Finds the file and line that defined a field, across ``extends:`` and ``--set``."""
+
+    def __init__(self) -> None:
+        self.sources: list[Source] = []  # most derived last
+        self.overrides: dict[tuple[str, ...], str] = {}
+
+    def where(self, loc: tuple[Any, ...]) -> str:
+        """``file:line`` (or ``--set a.b=c``) for a field location."""
+        key = tuple(str(p) for p in loc)
+        for path, text in self.overrides.items():
+            if key[: len(path)] == path:
+                return f"--set {text}"
+        best: tuple[int, str] | None = None
+        for source in reversed(self.sources):
+            found = source.line_of(loc)
+            if found is not None and (best is None or found[1] > best[0]):
+                best = (found[1], f"{source.origin}:{found[0]}")
+        return best[1] if best else "<recipe>"
+
+
+def deep_merge(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
+    """Merge mappings recursively; anything else in ``override`` replaces the base value."""
+    merged = copy.deepcopy(base)
+    for key, value in override.items():
+        if isinstance(value, dict) and isinstance(merged.get(key), dict):
+            merged[key] = deep_merge(merged[key], value)
+        else:
+            merged[key] = copy.deepcopy(value)
+    return merged
+
+
+def _locate_base(name: str, relative_to: Path, registry: Registry) -> Path:
+    candidate = (relative_to / name).expanduser()
+    if candidate.exists():
+        return candidate
+    if name in registry.names("recipe"):
+        return Path(str(registry.get("recipe", name).target))
+    raise RecipeError(
+        f"extends: {name!r} is neither a file next to the recipe nor a bundled recipe "
+        f"({', '.join(registry.names('recipe')) or 'none installed'})"
+    )
+
+
+def _read_with_bases(path: Path, smap: SourceMap, registry: Registry) -> dict[str, Any]:
+    chain: list[Source] = []
+    seen: set[Path] = set()
+    current: Path | None = path
+    while current is not None:
+        resolved = current.resolve()
+        if resolved in seen or len(chain) > MAX_EXTENDS:
+            raise RecipeError(f"{current}: 'extends' forms a cycle")
+        seen.add(resolved)
+        source = parse_file(current)
+        chain.append(source)
+        base = source.data.get("extends")
+        if base is not None and not isinstance(base, str):
+            line = source.line_of(("extends",))
+            raise RecipeError(f"{source.origin}:{line[0] if line else 1}: extends: must be a name")
+        current = _locate_base(base, current.parent, registry) if base else None
+    data: dict[str, Any] = {}
+    for source in reversed(chain):
+        data = deep_merge(data, source.data)
+        smap.sources.append(source)
+    data.pop("extends", None)
+    return data
+
+
+def apply_override(data: dict[str, Any], assignment: str, smap: SourceMap) -> None:
+    """Apply one ``a.b=c`` override in place (``c`` parsed as YAML)."""
+    key, sep, raw = assignment.partition("=")
+    if not sep or not key.strip():
+        raise RecipeError(f"--set {assignment!r}: expected FIELD.PATH=VALUE")
+    parts = key.strip().split(".")
+    node: Any = data
+    for i, part in enumerate(parts[:-1]):
+        if isinstance(node, list):
+            node = _list_item(node, part, assignment)
+        else:
+            nxt = node.get(part)
+            if nxt is None:
+                nxt = node[part] = {}
+            elif not isinstance(nxt, (dict, list)):
+                raise RecipeError(f"--set {assignment}: {'.'.join(parts[: i + 1])} is not a mapping")
+            node = nxt
+    value = parse_value(raw)
+    if isinstance(node, list):
+        index = int(parts[-1]) if parts[-1].lstrip("-").isdigit() else None
+        if index is None or not -len(node) <= index < len(node):
+            raise RecipeError(f"--set {assignment}: no list item {parts[-1]!r}")
+        node[index] = value
+    else:
+        node[parts[-1]] = value
+    smap.overrides[tuple(parts)] = assignment
+
+
+def _list_item(node: list[Any], part: str, assignment: str) -> Any:
+    if not part.lstrip("-").isdigit() or not -len(node) <= int(part) < len(node):
+        raise RecipeError(f"--set {assignment}: no list item {part!r}")
+    return node[int(part)]
+
+
+def _render(errors: list[dict[str, Any]], smap: SourceMap, prefix: tuple[Any, ...] = ()) -> list[str]:
+    lines = []
+    for err in errors:
+        loc = prefix + tuple(err["loc"])
+        msg = err["msg"].removeprefix("Value error, ")
+        if err["type"] == "missing":
+            msg = "required field is missing"
+        lines.append(f"{smap.where(loc)}: {dotted(loc) or '(top level)'}: {msg}")
+    return lines
+
+
+def validate_components(recipe: Recipe, smap: SourceMap, registry: Registry) -> None:
+    """Validate every component's options with its plugin's config model."""
+    problems: list[str] = []
+    for kind, loc, spec in recipe.components():
+        try:
+            entry = registry.get(kind, spec.plugin)
+        except PluginError as exc:
+            problems.append(f"{smap.where(loc + ('plugin',))}: {dotted(loc)}.plugin: {exc}")
+            continue
+        spec._entry = entry
+        if entry.config is None:
+            spec._config = None
+            continue
+        try:
+            spec._config = entry.config.model_validate(spec.options())
+        except ValidationError as exc:
+            problems.extend(_render(exc.errors(), smap, loc))
+    if problems:
+        raise RecipeError("\n".join(problems))
+
+
+def load_recipe(
+    path: str | Path,
+    overrides: list[str] | tuple[str, ...] = (),
+    registry: Registry | None = None,
+) -> Recipe:
+    """Read, merge, override and validate a recipe file (or a bundled recipe name)."""
+    registry = registry or get_registry()
+    path = Path(path)
+    if not path.exists() and path.suffix == "" and str(path) in registry.names("recipe"):
+        path = Path(str(registry.get("recipe", str(path)).target))
+    smap = SourceMap()
+    data = _read_with_bases(path, smap, registry)
+    for assignment in overrides:
+        apply_override(data, assignment, smap)
+    try:
+        recipe = Recipe.model_validate(data)
+    except ValidationError as exc:
+        raise RecipeError("\n".join(_render(exc.errors(), smap))) from None
+    recipe._dir = str(path.parent)
+    recipe._origin = str(path)
+    validate_components(recipe, smap, registry)
+    return recipe
+
+
+def recipe_from_dict(data: dict[str, Any], base_dir: str = ".", registry: Registry | None = None) -> Recipe:
+    """Validate a recipe given as a mapping (for instance from a checkpoint's metadata)."""
+    smap = SourceMap()
+    try:
+        recipe = Recipe.model_validate(data)
+    except ValidationError as exc:
+        raise RecipeError("\n".join(_render(exc.errors(), smap))) from None
+    recipe._dir = base_dir
+    validate_components(recipe, smap, registry or get_registry())
+    return recipe

@@ -1,0 +1,161 @@
+"""The recipe's pydantic models. Component options are validated later by each plugin's config."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, PositiveInt, PrivateAttr
+
+
+class Strict(BaseModel):
+    """A recipe section: unknown fields are errors."""
+
+    model_config = ConfigDict(extra="forbid")
+
+
+class ComponentSpec(BaseModel):
+    """``{plugin: name, ...options}``; the options are checked by that plugin's config model."""
+
+    model_config = ConfigDict(extra="allow")
+
+    plugin: str = Field(description="registered name of the component")
+    _config: Any = PrivateAttr(default=None)
+    _entry: Any = PrivateAttr(default=None)
+
+    def options(self) -> dict[str, Any]:
+        """The options given next to ``plugin``."""
+        return dict(self.model_extra or {})
+
+    @property
+    def config(self) -> Any:
+        """The plugin's validated config (set when the recipe is resolved)."""
+        if self._entry is None:
+            raise RuntimeError(f"component {self.plugin!r} has not been validated")
+        return self._config
+
+    def build(self, **context: Any) -> Any:
+        """Build the component with its validated config and the given context."""
+        if self._entry is None:
+            raise RuntimeError(f"component {self.plugin!r} has not been validated")
+        return self._entry.build(self._config, **context)
+
+
+class ModelSpec(Strict):
+    """Conditioners (by stream name), an encoder and an output head."""
+
+    conditioners: dict[str, ComponentSpec] = Field(default_factory=dict)
+    encoder: ComponentSpec
+    head: ComponentSpec
+
+
+class DataSpec(Strict):
+    """Where training clips come from and how they are cut."""
+
+    dataset: ComponentSpec
+    val_fraction: float = Field(0.1, ge=0.0, lt=1.0)
+    segment_frames: PositiveInt | None = Field(
+        None, description="training segment length for song-level encoders"
+    )
+
+
+class OptimizerSpec(Strict):
+    """AdamW settings."""
+
+    lr: PositiveFloat = 1e-3
+    weight_decay: float = Field(0.0, ge=0.0)
+    betas: tuple[float, float] = (0.9, 0.999)
+
+
+class StageSpec(Strict):
+    """One training stage: how long, and which parameters (by name prefix) it trains."""
+
+    name: str
+    steps: PositiveInt
+    trainable: list[str] = Field(default_factory=list, description="prefixes; empty: all")
+    lr: PositiveFloat | None = None
+
+
+class TrainingSpec(Strict):
+    """Optimization, schedules, devices, checkpoints and logging."""
+
+    steps: PositiveInt = 1000
+    batch_size: PositiveInt = 32
+    optimizer: OptimizerSpec = Field(default_factory=OptimizerSpec)
+    lr_schedule: ComponentSpec = Field(default_factory=lambda: ComponentSpec(plugin="constant"))
+    schedules: dict[str, ComponentSpec] = Field(
+        default_factory=dict, description="named values handed to the model's loss every step"
+    )
+    grad_clip: PositiveFloat | None = 1.0
+    device: Literal["auto", "cpu", "cuda", "mps"] = "auto"
+    precision: Literal["auto", "fp32", "bf16", "fp16"] = "auto"
+    val_every: PositiveInt = 200
+    val_batches: PositiveInt = 4
+    checkpoint_every: PositiveInt = 500
+    log_every: PositiveInt = 25
+    stages: list[StageSpec] | None = None
+    output: str = Field("runs/{name}", description="run folder; {name} is the recipe name")
+
+    def stage_list(self) -> list[StageSpec]:
+        """The stages, or one stage ``main`` of ``steps`` steps."""
+        return self.stages or [StageSpec(name="main", steps=self.steps)]
+
+
+class ComposeSpec(Strict):
+    """What ``dance compose`` makes."""
+
+    music: list[str] = Field(default_factory=list, description="songs (relative to the recipe)")
+    checkpoint: str | None = None
+    seed_motion: str | None = Field(None, description="a motion file, or 'rest'")
+    seconds: PositiveFloat | None = Field(None, description="length; default the whole song")
+    temperature: float = Field(1.0, ge=0.0)
+    samples: PositiveInt = 1
+    keep: PositiveInt | None = Field(None, description="frames kept per step; default the head's")
+    formats: list[str] = Field(default_factory=lambda: ["npz"])
+    out_dir: str = "out"
+    device: Literal["auto", "cpu", "cuda", "mps"] = "auto"
+
+
+class Recipe(Strict):
+    """A whole recipe: features, model, data, training and composition."""
+
+    extends: str | None = Field(None, description="base recipe file or bundled recipe name")
+    name: str
+    description: str = ""
+    seed: int = 0
+    fps: PositiveFloat = 20.0
+    features: dict[str, list[ComponentSpec]] = Field(default_factory=dict)
+    model: ModelSpec
+    data: DataSpec | None = None
+    training: TrainingSpec = Field(default_factory=TrainingSpec)
+    compose: ComposeSpec = Field(default_factory=ComposeSpec)
+    _dir: str = PrivateAttr(default=".")
+    _origin: str = PrivateAttr(default="<recipe>")
+
+    def components(self) -> list[tuple[str, tuple[Any, ...], ComponentSpec]]:
+        """Every component spec as (kind, location, spec)."""
+        found: list[tuple[str, tuple[Any, ...], ComponentSpec]] = []
+        for stream, extractors in self.features.items():
+            for i, spec in enumerate(extractors):
+                found.append(("feature", ("features", stream, i), spec))
+        for name, spec in self.model.conditioners.items():
+            found.append(("conditioner", ("model", "conditioners", name), spec))
+        found.append(("encoder", ("model", "encoder"), self.model.encoder))
+        found.append(("head", ("model", "head"), self.model.head))
+        if self.data is not None:
+            found.append(("dataset", ("data", "dataset"), self.data.dataset))
+        found.append(("schedule", ("training", "lr_schedule"), self.training.lr_schedule))
+        for name, spec in self.training.schedules.items():
+            found.append(("schedule", ("training", "schedules", name), spec))
+        return found
+
+    def resolve_path(self, path: str) -> str:
+        """A path from the recipe, relative to the recipe file's folder."""
+        from pathlib import Path
+
+        p = Path(path).expanduser()
+        return str(p if p.is_absolute() else Path(self._dir) / p)
+
+    def model_dict(self) -> dict[str, Any]:
+        """The parts a checkpoint must agree with: fps, features and model."""
+        data = self.model_dump(mode="json")
+        return {key: data[key] for key in ("fps", "features", "model")}
