@@ -56,3 +56,8 @@ def register_schedules(register):
 @hookspec
 def register_recipes(register):
     """Register bundled recipe files by name."""
+
+
+@hookspec
+def register_commands(subparsers):
+    """Add ``dance`` subcommands: ``subparsers.add_parser(...)`` with ``set_defaults(run=fn)``."""

@@ -105,3 +105,20 @@ def recipe_list(args: Namespace) -> int:
     for e in get_registry().entries("recipe"):
         print(f"{e.name:24} {e.distribution:12} {e.description}")
     return 0
+
+
+def synth(args: Namespace) -> int:
+    """``dance synth``: a click track with beats every 60/bpm seconds (downbeat every 4th)."""
+    import numpy as np
+
+    from dance_core.components.synthetic import click_track
+    from dance_core.components.wav import write_wav
+    from dance_core.errors import DanceError
+
+    if not (20 <= args.bpm <= 400) or not (0.5 <= args.seconds <= 3600) or args.rate < 4000:
+        raise DanceError("synth: need 20 <= --bpm <= 400, 0.5 <= --seconds <= 3600, --rate >= 4000")
+    beats = np.arange(0.0, args.seconds, 60.0 / args.bpm)
+    audio = click_track(beats, args.seconds, args.rate, np.random.default_rng(args.seed))
+    write_wav(args.out, audio, args.rate)
+    print(args.out)
+    return 0

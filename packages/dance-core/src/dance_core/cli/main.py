@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from dance_core.cli import commands
+from dance_core.errors import DanceError
 
 
 class Parser(argparse.ArgumentParser):
@@ -21,7 +22,7 @@ def _sets(p: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> Parser:
-    """The full argument parser."""
+    """The full argument parser (plugins may add subcommands through ``register_commands``)."""
     from importlib.metadata import version
 
     parser = Parser(prog="dance", description="Music (and text) to 3D dance motion.")
@@ -50,9 +51,21 @@ def build_parser() -> Parser:
     _sets(p)
     p.set_defaults(run=commands.train)
 
+    p = sub.add_parser("synth", help="write a click-track song with known beats (a test song)")
+    p.add_argument("out", help="WAV file to write")
+    p.add_argument("--bpm", type=float, default=120.0, help="tempo (default 120)")
+    p.add_argument("--seconds", type=float, default=20.0, help="length (default 20)")
+    p.add_argument("--rate", type=int, default=22050, help="sample rate (default 22050)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the drone notes and noise")
+    p.set_defaults(run=commands.synth)
+
     p = sub.add_parser("plugins", help="list installed components by kind")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(run=commands.plugins)
+
+    from dance_core.plugins import get_plugin_manager
+
+    get_plugin_manager().hook.register_commands(subparsers=sub)
 
     rp = sub.add_parser("recipe", help="validate, show, list recipes or print their schema")
     rsub = rp.add_subparsers(dest="recipe_command", metavar="ACTION", parser_class=Parser, required=True)
@@ -74,13 +87,15 @@ def build_parser() -> Parser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``dance`` script."""
-    parser = build_parser()
+    try:
+        parser = build_parser()
+    except DanceError as exc:  # a broken plugin: still one line
+        print(f"dance: error: {exc}", file=sys.stderr)
+        return 1
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help()
         return 2
-    from dance_core.errors import DanceError
-
     try:
         return args.run(args) or 0
     except DanceError as exc:

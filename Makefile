@@ -1,0 +1,36 @@
+# Two commands do all the set-up on a fresh machine:
+#   make demo   - install, then run the main job
+#   make test   - install, then run every test
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+DANCE := $(VENV)/bin/dance
+STAMP := $(VENV)/.installed
+PYPROJECTS := $(wildcard packages/*/pyproject.toml)
+
+.PHONY: install demo test lint clean
+
+install: $(STAMP)
+
+$(STAMP): requirements-dev.txt $(PYPROJECTS)
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade "pip>=23.2"
+	$(PY) -m pip install --quiet -r requirements-dev.txt
+	$(PY) -m pip check
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(DANCE) plugins
+	$(DANCE) recipe validate core-synthetic
+	$(DANCE) train core-synthetic --out runs/core-synthetic
+	$(DANCE) synth out/click-120bpm.wav --bpm 120 --seconds 20
+	$(DANCE) compose core-synthetic --checkpoint runs/core-synthetic/model.safetensors --music out/click-120bpm.wav --out out
+
+test: $(STAMP)
+	$(PY) -m pytest
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check packages tests
+
+clean:
+	rm -rf $(VENV) runs out

@@ -1,0 +1,1 @@
+"""dance-flow: Transflower for dance: transformer context encoders and a normalizing-flow output head."""

@@ -1,0 +1,3 @@
+"""Entry module of the ``flow`` plugin: registers components lazily (no torch imported here)."""
+
+from __future__ import annotations

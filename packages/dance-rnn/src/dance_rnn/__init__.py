@@ -1,0 +1,1 @@
+"""dance-rnn: DanceRevolution for dance: local self-attention music encoder, LSTM decoder, curriculum training."""
