@@ -17,9 +17,9 @@ MIN_SECONDS = 0.5
 def audio_reader_for(path: Path, registry: Registry):
     """The registered audio reader for a file suffix."""
     suffix = path.suffix.lower()
-    for entry in registry.entries("audio-reader"):
-        if suffix in entry.info.get("suffixes", ()):
-            return entry.build()
+    able = [e for e in registry.entries("audio-reader") if suffix in e.info.get("suffixes", ())]
+    if able:  # the highest ``priority=`` registered wins (core's readers have 0)
+        return max(able, key=lambda e: e.info.get("priority", 0)).build()
     known = sorted({s for e in registry.entries("audio-reader") for s in e.info.get("suffixes", ())})
     raise DataError(
         f"{path}: no audio reader for {suffix or 'files without a suffix'!r} "
