@@ -162,8 +162,8 @@ def save_train_state(path: str | Path, optimizer: torch.optim.Optimizer, step: i
     _save(Path(path), tensors, metadata)
 
 
-def load_train_state(path: str | Path, optimizer: torch.optim.Optimizer) -> int:
-    """Restore optimizer and RNG state; returns the step to continue from."""
+def load_train_state(path: str | Path, optimizer: torch.optim.Optimizer | None) -> int:
+    """Restore RNG and (unless None, as at a stage boundary) optimizer state; returns the step."""
     path = Path(path)
     tensors, meta = _load(path, "training state")
     if meta.get("format") != STATE_FORMAT:
@@ -176,7 +176,8 @@ def load_train_state(path: str | Path, optimizer: torch.optim.Optimizer) -> int:
     for pid, values in json.loads(meta["plain_state"]).items():
         state.setdefault(int(pid), {}).update(values)
     try:
-        optimizer.load_state_dict({"state": state, "param_groups": json.loads(meta["param_groups"])})
+        if optimizer is not None:
+            optimizer.load_state_dict({"state": state, "param_groups": json.loads(meta["param_groups"])})
     except (ValueError, KeyError) as exc:
         raise CheckpointError(f"{path}: training state does not fit the model: {exc}") from None
     torch.set_rng_state(tensors["rng.torch"])

@@ -172,8 +172,8 @@ class Trainer:
             lines = [ln for ln in path.read_text().splitlines() if ln and json.loads(ln).get("step", 0) <= step]
             write_text(path, "".join(ln + "\n" for ln in lines))
 
-    def run(self, resume: bool = False) -> TrainResult:
-        """Train to the last step of the last stage (continuing a run when ``resume``)."""
+    def run(self, resume: bool = False, stop_at: int | None = None) -> TrainResult:
+        """Train to the last step (or to ``stop_at``), continuing the run in the folder when ``resume``."""
         self.run_dir.mkdir(parents=True, exist_ok=True)
         start = 0
         if resume:
@@ -186,14 +186,16 @@ class Trainer:
         stage_index, _ = stage_at(self.stages, start)
         optimizer = self._optimizer(self.stages[stage_index])
         if resume and start < self.total:
-            load_train_state(self.run_dir / STATE_FILE, optimizer)
+            same_stage = start > 0 and stage_at(self.stages, start - 1)[0] == stage_index
+            load_train_state(self.run_dir / STATE_FILE, optimizer if same_stage else None)
         first = last = float("nan")
         val_loss = None
         checkpoint = self.run_dir / MODEL_FILE
         tick, tick_step = time.perf_counter(), start
         with progress_bar(self.quiet) as bar:
             task = bar.add_task(f"train {self.recipe.name}", total=self.total, completed=start, info="") if bar else None
-            for step in range(start, self.total):
+            end = min(self.total, stop_at) if stop_at else self.total
+            for step in range(start, end):
                 index, local = stage_at(self.stages, step)
                 stage = self.stages[index]
                 if index != stage_index:
@@ -206,7 +208,7 @@ class Trainer:
                 first = loss if step == start else first
                 last = loss
                 done = step + 1
-                if done % self.t.log_every == 0 or done == self.total:
+                if done % self.t.log_every == 0 or done == end:
                     now = time.perf_counter()
                     rate = (done - tick_step) * self.t.batch_size / max(now - tick, 1e-9)
                     tick, tick_step = now, done
@@ -214,15 +216,15 @@ class Trainer:
                                "loss": loss, "segments_per_s": rate, **ctx.values})
                     if bar:
                         bar.update(task, info=f"loss {loss:.4f}  {rate:.0f} seg/s")
-                if done % self.t.val_every == 0 or done == self.total:
+                if done % self.t.val_every == 0 or done == end:
                     val_loss = self.validate(done, stage)
                     if val_loss is not None:
                         self._log({"step": done, "stage": stage.name, "val_loss": val_loss})
-                if done % self.t.checkpoint_every == 0 or done == self.total:
+                if done % self.t.checkpoint_every == 0 or done == end:
                     checkpoint = self.save(done, optimizer)
                 if bar:
                     bar.update(task, completed=done)
-        return TrainResult(self.run_dir, checkpoint, self.total, first, last, val_loss)
+        return TrainResult(self.run_dir, checkpoint, end, first, last, val_loss)
 
     def _step(self, step: int, optimizer: torch.optim.Optimizer, ctx: TrainContext) -> float:
         motion, streams = self.sampler.batch(step, self.device)
@@ -259,6 +261,8 @@ class Trainer:
         )
 
 
-def train(recipe: Recipe, out: str | None = None, resume: bool = False, quiet: bool = False) -> TrainResult:
+def train(
+    recipe: Recipe, out: str | None = None, resume: bool = False, quiet: bool = False, stop_at: int | None = None
+) -> TrainResult:
     """Train a recipe's model; the run folder holds checkpoint, state, log and resolved recipe."""
-    return Trainer(recipe, run_dir_for(recipe, out), quiet).run(resume=resume)
+    return Trainer(recipe, run_dir_for(recipe, out), quiet).run(resume=resume, stop_at=stop_at)

@@ -35,7 +35,7 @@ def train(args: Namespace) -> int:
     """``dance train``."""
     from dance_core.train import train as run
 
-    result = run(_recipe(args), out=args.out, resume=args.resume, quiet=args.quiet)
+    result = run(_recipe(args), out=args.out, resume=args.resume, quiet=args.quiet, stop_at=args.stop_at)
     val = f", validation loss {result.val_loss:.4f}" if result.val_loss is not None else ""
     print(f"trained {result.steps} steps: loss {result.first_loss:.4f} -> {result.last_loss:.4f}{val}")
     print(result.checkpoint)

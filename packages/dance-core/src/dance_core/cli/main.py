@@ -48,6 +48,7 @@ def build_parser() -> Parser:
     p.add_argument("recipe", help="recipe file or bundled recipe name")
     p.add_argument("-o", "--out", help="run folder (default: training.output)")
     p.add_argument("--resume", action="store_true", help="continue the run in the run folder")
+    p.add_argument("--stop-at", type=int, metavar="STEP", help="checkpoint and stop at this step")
     _sets(p)
     p.set_defaults(run=commands.train)
 

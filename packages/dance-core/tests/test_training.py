@@ -1,0 +1,142 @@
+import json
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from dance_core import hookimpl
+from dance_core.checkpoint import check_matches, load_checkpoint, load_weights
+from dance_core.components.configs import RegressionHeadConfig
+from dance_core.components.modules import RegressionHead
+from dance_core.errors import CheckpointError, TrainingError
+from dance_core.model import build_model
+from dance_core.recipe import load_recipe
+from dance_core.testing import registered_plugin
+from dance_core.train import Trainer, train
+
+
+def weights(path):
+    return load_checkpoint(path).weights
+
+
+def test_core_recipe_learns_beats_below_mean_pose_baseline(tmp_path):
+    recipe = load_recipe("core-synthetic", ["training.steps=400"])
+    trainer = Trainer(recipe, tmp_path, quiet=True)
+    result = trainer.run()
+    # the mean pose is 0 in standardized units: its L1 loss is the mean |target|
+    baseline = np.mean([trainer.val_sampler.batch(i)[0].abs().mean().item() for i in range(4)])
+    assert result.last_loss < 0.15 * result.first_loss
+    assert result.val_loss < 0.25 * baseline
+    log = [json.loads(line) for line in (tmp_path / "log.jsonl").read_text().splitlines()]
+    assert log[-1]["val_loss"] == pytest.approx(result.val_loss)
+    assert {"step", "lr", "loss", "epoch", "segments_per_s"} <= set(log[0])
+
+
+def test_checkpoint_round_trip_and_metadata(tiny_recipe, tmp_path):
+    recipe = tiny_recipe()
+    result = train(recipe, out=str(tmp_path), quiet=True)
+    ckpt = load_checkpoint(result.checkpoint)
+    assert ckpt.step == 40 and ckpt.motion["dim"] == 18 and ckpt.motion["fps"] == 20
+    assert ckpt.recipe["model"] == recipe.model_dump(mode="json")["model"]
+    assert "torch" in ckpt.versions and "dance-core" in ckpt.versions
+    model = build_model(recipe, 18, {"music": 4})
+    load_weights(model, ckpt)
+    for name, value in model.state_dict().items():
+        assert torch.equal(value, ckpt.weights[name])
+    check_matches(ckpt, recipe)
+    assert ckpt.stats.motion.mean.shape == (18,)
+    assert (tmp_path / "recipe.yaml").exists()
+
+
+def test_checkpoint_refuses_a_recipe_it_does_not_match(tiny_recipe, tmp_path):
+    result = train(tiny_recipe(), out=str(tmp_path), quiet=True)
+    other = tiny_recipe("model.encoder.dim=64")
+    with pytest.raises(CheckpointError, match=r"model\.encoder\.dim differ"):
+        check_matches(load_checkpoint(result.checkpoint), other)
+    model = build_model(other, 18, {"music": 4})
+    with pytest.raises(CheckpointError, match="weights do not fit"):
+        load_weights(model, load_checkpoint(result.checkpoint))
+
+
+def test_corrupt_or_foreign_checkpoint_is_one_line(tmp_path):
+    bad = tmp_path / "bad.safetensors"
+    bad.write_bytes(b"\x00" * 64)
+    with pytest.raises(CheckpointError, match="not a readable safetensors") as err:
+        load_checkpoint(bad)
+    assert "\n" not in str(err.value)
+    from safetensors.torch import save_file
+
+    save_file({"x": torch.zeros(2)}, str(tmp_path / "foreign.safetensors"))
+    with pytest.raises(CheckpointError, match="not a dance checkpoint"):
+        load_checkpoint(tmp_path / "foreign.safetensors")
+    with pytest.raises(CheckpointError, match="not found"):
+        load_checkpoint(tmp_path / "missing.safetensors")
+
+
+def test_resume_equals_an_uninterrupted_run(tiny_recipe, tmp_path):
+    recipe = tiny_recipe("training.checkpoint_every=1000", "model.conditioners.music.dropout=0.2")
+    straight = train(recipe, out=str(tmp_path / "a"), quiet=True)
+    first = train(recipe, out=str(tmp_path / "b"), quiet=True, stop_at=17)
+    assert load_checkpoint(first.checkpoint).step == 17
+    resumed = train(recipe, out=str(tmp_path / "b"), quiet=True, resume=True)
+    assert resumed.steps == 40
+    a, b = weights(straight.checkpoint), weights(resumed.checkpoint)
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    log_a = (tmp_path / "a" / "log.jsonl").read_text().splitlines()
+    log_b = (tmp_path / "b" / "log.jsonl").read_text().splitlines()
+    strip = lambda lines: [{k: v for k, v in json.loads(x).items() if k != "segments_per_s"} for x in lines]
+    assert [r for r in strip(log_b) if r["step"] != 17] == strip(log_a)
+
+
+def test_resume_without_a_run_is_a_clear_error(tiny_recipe, tmp_path):
+    with pytest.raises(CheckpointError, match="not found"):
+        train(tiny_recipe(), out=str(tmp_path), quiet=True, resume=True)
+
+
+def test_same_seed_same_weights_different_seed_differs(tiny_recipe, tmp_path):
+    a = weights(train(tiny_recipe(), out=str(tmp_path / "a"), quiet=True).checkpoint)
+    b = weights(train(tiny_recipe(), out=str(tmp_path / "b"), quiet=True).checkpoint)
+    c = weights(train(tiny_recipe("seed=1"), out=str(tmp_path / "c"), quiet=True).checkpoint)
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    assert not all(torch.equal(a[k], c[k]) for k in a)
+
+
+class NanHead(RegressionHead):
+    def loss(self, latent, target, history, ctx):
+        out = super().loss(latent, target, history, ctx)
+        if ctx.step >= 25:
+            out["loss"] = out["loss"] * math.nan
+        return out
+
+
+class NanPlugin:
+    @hookimpl
+    def register_heads(self, register):
+        register("nan-head", RegressionHeadConfig,
+                 lambda c, *, motion_dim, latent_dim, **_: NanHead(c, motion_dim, latent_dim, None))
+
+
+def test_nan_loss_stops_with_message_and_keeps_last_good_checkpoint(tiny_recipe, tmp_path):
+    with registered_plugin(NanPlugin(), "nan-plugin"):
+        recipe = tiny_recipe("model.head.plugin=nan-head")
+        with pytest.raises(TrainingError) as err:
+            train(recipe, out=str(tmp_path), quiet=True)
+    msg = str(err.value)
+    assert "step 25" in msg and "loss is nan" in msg and str(tmp_path / "model.safetensors") in msg
+    ckpt = load_checkpoint(tmp_path / "model.safetensors")
+    assert ckpt.step == 20 and all(torch.isfinite(v).all() for v in ckpt.weights.values())
+
+
+def test_stages_train_only_their_prefixes(tiny_recipe, tmp_path):
+    recipe = tiny_recipe(
+        "training.stages=[{name: heads, steps: 10, trainable: [head.]}, {name: all, steps: 5}]"
+    )
+    trainer = Trainer(recipe, tmp_path, quiet=True)
+    before = {k: v.clone() for k, v in trainer.model.state_dict().items()}
+    trainer.run(stop_at=10)
+    after = trainer.model.state_dict()
+    changed = {k for k in before if not torch.equal(before[k], after[k])}
+    assert changed and all(k.startswith("head.") for k in changed)
+    trainer.run(resume=True)
+    assert any(not torch.equal(before[k], trainer.model.state_dict()[k]) for k in before if k.startswith("encoder."))
