@@ -80,7 +80,7 @@ def write_wav(path: str | Path, samples: np.ndarray, rate: int) -> None:
     """Write mono 16-bit PCM atomically (used for synthesized demo music)."""
     from dance_core.atomic import write_bytes
 
-    pcm = (np.clip(samples, -1.0, 1.0) * 32767.0).astype("<i2").tobytes()
+    pcm = np.clip(np.round(np.asarray(samples, np.float64) * 32768.0), -32768, 32767).astype("<i2").tobytes()
     header = b"RIFF" + struct.pack("<I", 36 + len(pcm)) + b"WAVE"
     fmt = b"fmt " + struct.pack("<IHHIIHH", 16, PCM, 1, rate, rate * 2, 2, 16)
     write_bytes(path, header + fmt + b"data" + struct.pack("<I", len(pcm)) + pcm)

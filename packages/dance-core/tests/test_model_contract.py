@@ -1,0 +1,108 @@
+"""The composed model drives windowed and song-level families through one contract."""
+
+import torch
+from torch import nn
+
+from dance_core import ComponentConfig, hookimpl
+from dance_core.protocols import Encoder, OutputHead, TrainContext, Window
+from dance_core.recipe import load_recipe
+from dance_core.testing import registered_plugin
+from dance_core.train import Trainer
+
+
+class SongEncoder(nn.Module):
+    """Song-level: a per-frame linear map of the whole conditioning sequence."""
+
+    window = Window(0, None, 0)
+    latent_tokens = None
+
+    def __init__(self, cond_dims):
+        super().__init__()
+        self.out_dim = 16
+        self.proj = nn.Linear(sum(cond_dims.values()), 16)
+        self.calls = 0
+
+    def forward(self, motion, cond):
+        assert motion is None
+        self.calls += 1
+        return self.proj(torch.cat(list(cond.values()), dim=-1))
+
+
+class StatefulHead(nn.Module):
+    """One frame per step from the previous frame, the aligned latent and a GRU state."""
+
+    frames, keep, history_frames, latent_tokens = 1, 1, 1, None
+
+    def __init__(self, motion_dim, latent_dim):
+        super().__init__()
+        self.cell = nn.GRUCell(motion_dim + latent_dim, 32)
+        self.out = nn.Linear(32, motion_dim)
+        self.steps = 0
+
+    def loss(self, latent, target, history, ctx: TrainContext):
+        h = torch.zeros(target.shape[0], 32)
+        prev, err = history[:, -1], []
+        for t in range(target.shape[1]):
+            h = self.cell(torch.cat([prev, latent[:, t]], -1), h)
+            err.append((self.out(h) - target[:, t]).abs().mean())
+            prev = target[:, t]
+        return {"loss": torch.stack(err).mean(), "q": torch.tensor(ctx.values.get("q", 0.0))}
+
+    def init_state(self, batch, generator):
+        return torch.randn(batch, 32, generator=generator) * 0.0
+
+    def step(self, latent, history, state, temperature, generator):
+        self.steps += 1
+        h = self.cell(torch.cat([history[:, -1], latent[:, 0]], -1), state)
+        return self.out(h)[:, None], h
+
+    def finish(self, motion, state):
+        return motion
+
+
+class Plugin:
+    @hookimpl
+    def register_encoders(self, register):
+        register("test-song", ComponentConfig, lambda c, *, cond_dims, **_: SongEncoder(cond_dims))
+
+    @hookimpl
+    def register_heads(self, register):
+        register("test-gru", ComponentConfig, lambda c, *, motion_dim, latent_dim, **_: StatefulHead(motion_dim, latent_dim))
+
+
+SMALL = ["data.dataset.songs=4", "data.dataset.seconds=6", "training.batch_size=8", "training.val_every=1000"]
+
+
+def test_song_level_family_trains_and_generates_through_core(tmp_path):
+    with registered_plugin(Plugin(), "contract"):
+        recipe = load_recipe("core-synthetic", [*SMALL, "model.encoder={plugin: test-song}",
+                                                "model.head={plugin: test-gru}", "data.segment_frames=24",
+                                                "training.steps=60", "training.schedules={q: {plugin: constant, value: 3}}"])
+        trainer = Trainer(recipe, tmp_path, quiet=True)
+        model = trainer.model
+        assert isinstance(model.encoder, Encoder) and isinstance(model.head, OutputHead)
+        assert model.segment_frames(24) == 24
+        result = trainer.run()
+        assert result.last_loss < result.first_loss
+        streams = {"music": torch.randn(2, 50, 4)}
+        seed = torch.full((2, 1, 18), 0.5)
+        model.encoder.calls = 0
+        out = model.generate(streams, 50, seed, generator=torch.Generator().manual_seed(0))
+    assert out.shape == (2, 50, 18)
+    assert torch.equal(out[:, 0], seed[:, 0])
+    assert model.encoder.calls == 1  # song-level: encoded once
+    assert model.head.steps == 49  # one frame per step after the seed frame
+
+
+def test_windowed_multi_frame_head_keeps_k_frames():
+    from dance_core.model import build_model
+
+    recipe = load_recipe("core-synthetic", ["model.head.frames=4", "model.encoder.tokens=4", "compose.keep=2"])
+    model = build_model(recipe, 18, {"music": 4}).eval()
+    calls = []
+    original = model.encoder.forward
+    model.encoder.forward = lambda m, c: calls.append(m.shape) or original(m, c)
+    out = model.generate({"music": torch.randn(1, 31, 4)}, 31, torch.zeros(1, 10, 18), keep=2)
+    assert out.shape == (1, 31, 18)
+    assert len(calls) == 11 and calls[0] == (1, 10, 18)  # (31 - 10) / 2 steps, rounded up
+    assert model.segment_frames(None) == 10 + 6  # motion_past + max(frames, cond_future)
