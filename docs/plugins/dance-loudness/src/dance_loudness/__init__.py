@@ -1,0 +1,1 @@
+"""An example dance plugin: frame-wise loudness in decibels."""
