@@ -176,10 +176,48 @@ class Schedule(Protocol):
         ...
 
 
+@dataclass
+class JointClip:
+    """One dance as joint positions for evaluation: ``(T, J, 3)`` in metres, Y up, at ``fps``.
+
+    ``music_beats`` are the beat times (seconds) of the clip's music, when known.
+    """
+
+    name: str
+    positions: np.ndarray
+    fps: float
+    joints: Sequence[str] | None = None
+    music_beats: np.ndarray | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def duration(self) -> float:
+        """Length in seconds."""
+        return len(self.positions) / self.fps
+
+
+@dataclass
+class MetricResult:
+    """A metric's summary values, optional per-clip values, and notes about skipped clips."""
+
+    values: dict[str, float]
+    per_clip: dict[str, dict[str, float]] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+
 @runtime_checkable
 class Metric(Protocol):
-    """A score of generated motion, optionally against reference motion and music."""
+    """A score of a set of generated dances, optionally against a reference set and music beats.
 
-    def __call__(self, generated: Sequence[MotionData], **context: Any) -> dict[str, float]:
-        """Named values of the metric."""
+    ``needs`` names what the metric cannot do without: ``"reference"`` (a reference set) and/or
+    ``"music"`` (``music_beats`` on the clips). A metric that cannot score its input raises a
+    ``DataError`` naming the clip and the reason.
+    """
+
+    needs: tuple[str, ...]
+
+    def __call__(
+        self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None
+    ) -> MetricResult:
+        """Score the generated set."""
         ...

@@ -1,0 +1,62 @@
+"""Pydantic configs of the registered metrics (a light module: registering imports no numpy code)."""
+
+from __future__ import annotations
+
+from pydantic import Field, PositiveFloat, PositiveInt
+
+from dance_core.config import ComponentConfig
+
+
+class FeatureMetricConfig(ComponentConfig):
+    """``compat: true`` reproduces the AIST++/Bailando feature bugs (see ``evaluation.kinetic``)."""
+
+    compat: bool = False
+
+
+class BailandoBASConfig(ComponentConfig):
+    """Speed smoothing and score width in seconds (5 and 3 frames at 60 fps in Bailando)."""
+
+    smooth_seconds: float = Field(5 / 60, ge=0.0)
+    sigma_seconds: PositiveFloat = 3 / 60
+
+
+class FactBASConfig(ComponentConfig):
+    """Minimum search half-width and score width in seconds (10 and 3 frames at 60 fps in FACT)."""
+
+    order_seconds: PositiveFloat = 10 / 60
+    sigma_seconds: PositiveFloat = 3 / 60
+
+
+class FreezingConfig(ComponentConfig):
+    """TM2D's freezing threshold (m/s) and minimum duration (s); AUC_f threshold range and steps."""
+
+    threshold: PositiveFloat = 0.015
+    min_seconds: PositiveFloat = 3.0
+    auc_max: PositiveFloat = 0.03
+    auc_steps: PositiveInt = Field(31, ge=2)
+
+
+class FrechetPoseConfig(ComponentConfig):
+    """``root_relative``: remove the root's horizontal position from every frame before comparing."""
+
+    root_relative: bool = True
+
+
+class BeatOffsetConfig(ComponentConfig):
+    """The hips joint (name; default the root joint) and optional smoothing of its velocity (s)."""
+
+    hips: str | None = None
+    smooth_seconds: float = Field(0.0, ge=0.0)
+
+
+class BeatCoverageConfig(ComponentConfig):
+    """Tolerance (s) for a kinematic beat to hit a music beat; speed smoothing of the detector (s)."""
+
+    tolerance_seconds: PositiveFloat = 0.1
+    smooth_seconds: float = Field(5 / 60, ge=0.0)
+
+
+class PFCConfig(ComponentConfig):
+    """Left ankle, left toe, right ankle, right toe joint names (default: SMPL-24 or known names)."""
+
+    feet: list[str] | None = Field(None, min_length=4, max_length=4)

@@ -1,0 +1,353 @@
+"""The registered metrics: each scores a set of generated ``JointClip``s (see ``protocols.Metric``)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from dance_core.errors import DataError
+from dance_core.evaluation import beats as B
+from dance_core.evaluation.clips import check_positions, require_clips, require_frames, same_joint_count
+from dance_core.evaluation.contact import SCALE, foot_indices, pfc_clip
+from dance_core.evaluation.freezing import auc, max_joint_speed, pff_curve
+from dance_core.evaluation.frechet import average_pairwise_distance, normalize, set_distance
+from dance_core.evaluation.geometric import geometric_features
+from dance_core.evaluation.kinetic import kinetic_features
+from dance_core.protocols import JointClip, MetricResult
+
+FEATURES: dict[str, tuple[str, Callable[[JointClip, bool], np.ndarray]]] = {
+    "kinetic": ("k", kinetic_features),
+    "geometric": ("g", geometric_features),
+}
+
+
+def feature_matrix(clips: Sequence[JointClip], kind: str, compat: bool) -> np.ndarray:
+    """Stacked per-clip features ``(N, D)`` of one kind."""
+    fn = FEATURES[kind][1]
+    return np.stack([fn(c, compat) for c in clips])
+
+
+class FeatureFID:
+    """FID_k / FID_g: Fréchet distance of kinetic or geometric features, normalized by the reference."""
+
+    needs = ("reference",)
+
+    def __init__(self, kind: str, compat: bool = False):
+        self.kind, self.compat = kind, compat
+        self.value = f"FID_{FEATURES[kind][0]}"
+
+    def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
+        """Score the generated set against the reference set."""
+        require_clips(generated, 2, self.value)
+        require_clips(reference, 2, self.value, "reference")
+        ref, gen = normalize(feature_matrix(reference, self.kind, self.compat),
+                             feature_matrix(generated, self.kind, self.compat), compat=self.compat)
+        return MetricResult({self.value: set_distance(gen, ref, self.value)})
+
+
+class FeatureDiversity:
+    """Div_k / Div_g: mean pairwise distance of normalized features within the generated set."""
+
+    needs: tuple[str, ...] = ()
+
+    def __init__(self, kind: str, compat: bool = False):
+        self.kind, self.compat = kind, compat
+        self.value = f"Div_{FEATURES[kind][0]}"
+
+    def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
+        """Normalize with the reference's statistics (or the generated set's own, with a note)."""
+        require_clips(generated, 2, self.value)
+        gen = feature_matrix(generated, self.kind, self.compat)
+        notes = []
+        if reference:
+            _, gen = normalize(feature_matrix(reference, self.kind, self.compat), gen, compat=self.compat)
+        else:
+            gen = normalize(gen, compat=self.compat)[0]
+            notes.append(f"{self.value}: no reference set; features normalized by the generated set")
+        return MetricResult({self.value: average_pairwise_distance(gen, self.value)}, notes=notes)
+
+
+def with_music(clips: Sequence[JointClip], what: str) -> tuple[list[tuple[JointClip, np.ndarray, np.ndarray]], list[str]]:
+    """Clips usable for a beat metric as (clip, positions, music beats within the clip), plus notes.
+
+    Clips without music beats or too short to have a motion beat are skipped with a note; a
+    DataError when none is left.
+    """
+    if not any(c.music_beats is not None for c in clips):
+        raise DataError(f"{what} needs music beats: pass --music DIR (songs or .beats files)")
+    usable, notes = [], []
+    for clip in clips:
+        p = check_positions(clip)
+        if clip.music_beats is None:
+            notes.append(f"{what}: {clip.name}: no music found; skipped")
+            continue
+        music = B.beats_within(clip.music_beats, clip.duration)
+        if len(music) == 0:
+            notes.append(f"{what}: {clip.name}: no music beat within its {clip.duration:.2f} s; skipped")
+            continue
+        if len(p) < 3:
+            notes.append(f"{what}: {clip.name}: {len(p)} frames are too few for motion beats; skipped")
+            continue
+        usable.append((clip, p, music))
+    if not usable:
+        raise DataError(f"{what}: no clip has both motion and music beats ({'; '.join(notes)})")
+    return usable, notes
+
+
+def _no_beat_note(what: str, clip: JointClip) -> str:
+    return f"{what}: {clip.name}: no motion beat (constant or frozen motion?); scored 0"
+
+
+class BailandoBAS:
+    """Bailando's Beat Align Score: mean over music beats of the Gaussian distance to a motion beat."""
+
+    needs = ("music",)
+
+    def __init__(self, smooth_seconds: float = 5 / 60, sigma_seconds: float = 3 / 60):
+        self.smooth, self.sigma = smooth_seconds, sigma_seconds
+
+    def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
+        """Mean over clips of the per-clip score."""
+        usable, notes = with_music(generated, "BAS_bailando")
+        per_clip = {}
+        for clip, p, music in usable:
+            motion = B.bailando_motion_beats(p, clip.fps, self.smooth)
+            if len(motion) == 0:
+                notes.append(_no_beat_note("BAS_bailando", clip))
+            per_clip[clip.name] = {"BAS_bailando": B.bailando_score(music, motion, self.sigma)}
+        value = float(np.mean([v["BAS_bailando"] for v in per_clip.values()]))
+        return MetricResult({"BAS_bailando": value}, per_clip, notes)
+
+
+class FactBAS:
+    """FACT's beat alignment score: mean over motion beats of the Gaussian distance to a music beat."""
+
+    needs = ("music",)
+
+    def __init__(self, order_seconds: float = 10 / 60, sigma_seconds: float = 3 / 60):
+        self.order, self.sigma = order_seconds, sigma_seconds
+
+    def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
+        """Mean over clips of the per-clip score (0 for a clip without motion beats)."""
+        usable, notes = with_music(generated, "BAS_fact")
+        per_clip = {}
+        for clip, p, music in usable:
+            motion = B.fact_motion_beats(p, clip.fps, self.order)
+            if len(motion) == 0:
+                notes.append(_no_beat_note("BAS_fact", clip))
+            per_clip[clip.name] = {"BAS_fact": B.fact_score(music, motion, self.sigma)}
+        value = float(np.mean([v["BAS_fact"] for v in per_clip.values()]))
+        return MetricResult({"BAS_fact": value}, per_clip, notes)
+
+
+class Freezing:
+    """TM2D's PFF (% frozen frames, pooled over the set) and AUC_f (mean PFF over thresholds)."""
+
+    needs: tuple[str, ...] = ()
+
+    def __init__(self, threshold: float = 0.015, min_seconds: float = 3.0, auc_max: float = 0.03, auc_steps: int = 31):
+        self.threshold, self.min_seconds = threshold, min_seconds
+        self.thresholds = np.linspace(0.0, auc_max, auc_steps)
+
+    def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
+        """Frame-weighted PFF and AUC_f over clips at least ``min_seconds`` long."""
+        require_clips(generated, 1, "PFF")
+        per_clip, notes, frames, frozen, curves = {}, [], 0, 0.0, []
+        for clip in generated:
+            p = check_positions(clip)
+            if len(p) < 2 or clip.duration < self.min_seconds:
+                notes.append(f"PFF: {clip.name}: {clip.duration:.2f} s is shorter than the "
+                             f"{self.min_seconds:g} s a freeze must last; skipped")
+                continue
+            speed = max_joint_speed(p, clip.fps)
+            pff = pff_curve(speed, clip.fps, np.array([self.threshold]), self.min_seconds)[0]
+            curve = pff_curve(speed, clip.fps, self.thresholds, self.min_seconds)
+            per_clip[clip.name] = {"PFF": float(pff), "AUC_f": auc(self.thresholds, curve)}
+            frames += len(p)
+            frozen += pff / 100.0 * len(p)
+            curves.append(curve * len(p))
+        if not per_clip:
+            raise DataError(f"PFF: every clip is shorter than {self.min_seconds:g} s ({'; '.join(notes)})")
+        pooled = np.sum(curves, axis=0) / frames
+        values = {"PFF": 100.0 * frozen / frames, "AUC_f": auc(self.thresholds, pooled)}
+        return MetricResult(values, per_clip, notes)
+
+
+def pose_frames(clip: JointClip, root_relative: bool) -> np.ndarray:
+    """Flattened poses ``(T, 3 J)``, optionally with the root's horizontal position removed."""
+    p = check_positions(clip).copy()
+    if root_relative:
+        p[..., [0, 2]] -= p[:, :1, [0, 2]]
+    return p.reshape(len(p), -1)
+
+
+class FrechetPose:
+    """Transflower's FPD (poses) and FMD (three consecutive poses): Fréchet distances of raw frames."""
+
+    needs = ("reference",)
+
+    def __init__(self, span: int, root_relative: bool = True):
+        self.span, self.root_relative = span, root_relative
+        self.value = "FPD" if span == 1 else "FMD"
+
+    def _samples(self, clips: Sequence[JointClip]) -> np.ndarray:
+        rows = []
+        for clip in clips:
+            require_frames(clip, self.span, self.value)
+            f = pose_frames(clip, self.root_relative)
+            n = len(f) - self.span + 1
+            rows.append(np.concatenate([f[k : k + n] for k in range(self.span)], axis=1))
+        return np.concatenate(rows)
+
+    def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
+        """Frames pooled over each set (no normalization, as in the paper)."""
+        require_clips(generated, 1, self.value)
+        require_clips(reference, 1, self.value, "reference")
+        same_joint_count(generated, reference, self.value)
+        rates = {c.fps for c in [*generated, *reference]}
+        if len(rates) > 1:
+            raise DataError(f"{self.value}: clips at different frame rates {sorted(rates)}; resample to one fps")
+        return MetricResult({self.value: set_distance(self._samples(generated), self._samples(reference), self.value)})
+
+
+def hips_index(clip: JointClip, hips: str | None) -> int:
+    """Index of the hips joint: a named joint, else the root (joint 0)."""
+    if hips is None:
+        return 0
+    if clip.joints is None or hips not in clip.joints:
+        raise DataError(f"{clip.name}: beat offsets: no joint named {hips!r}")
+    return list(clip.joints).index(hips)
+
+
+class BeatOffset:
+    """Transflower's beat offsets: mean and SD (s) of the time from each music beat to a hips beat."""
+
+    needs = ("music",)
+
+    def __init__(self, hips: str | None = None, smooth_seconds: float = 0.0):
+        self.hips, self.smooth = hips, smooth_seconds
+
+    def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
+        """Offsets pooled over every music beat of every clip with kinematic beats."""
+        usable, notes = with_music(generated, "beat offset")
+        pooled, per_clip = [], {}
+        for clip, p, music in usable:
+            kin = B.hips_beats(p, clip.fps, hips_index(clip, self.hips), self.smooth)
+            if len(kin) == 0:
+                notes.append(f"beat offset: {clip.name}: no kinematic beat (constant motion?); skipped")
+                continue
+            d = B.nearest_distances(music, kin)
+            pooled.append(d)
+            per_clip[clip.name] = {"beat_offset_mean": float(d.mean()), "beat_offset_sd": float(d.std())}
+        if not pooled:
+            raise DataError(f"beat offset: no clip has kinematic beats ({'; '.join(notes)})")
+        d = np.concatenate(pooled)
+        return MetricResult({"beat_offset_mean": float(d.mean()), "beat_offset_sd": float(d.std())}, per_clip, notes)
+
+
+class BeatCoverage:
+    """DanceRevolution's beat coverage and hit rate (%), totals pooled over the set."""
+
+    needs = ("music",)
+
+    def __init__(self, tolerance_seconds: float = 0.1, smooth_seconds: float = 5 / 60):
+        self.tolerance, self.smooth = tolerance_seconds, smooth_seconds
+
+    def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
+        """``100 * sum B_k / sum B_m`` and ``100 * sum B_a / sum B_k``."""
+        usable, notes = with_music(generated, "beat coverage")
+        bm = bk = ba = 0
+        per_clip = {}
+        for clip, p, music in usable:
+            kin = B.bailando_motion_beats(p, clip.fps, self.smooth)
+            coverage, hit = B.coverage_and_hit_rate(music, kin, self.tolerance)
+            bm, bk, ba = bm + len(music), bk + len(kin), ba + int(round(hit * len(kin)))
+            per_clip[clip.name] = {"beat_coverage": 100 * coverage, "beat_hit_rate": 100 * hit}
+            if len(kin) == 0:
+                notes.append(f"beat coverage: {clip.name}: no kinematic beat (constant motion?)")
+        values = {"beat_coverage": 100.0 * bk / bm, "beat_hit_rate": 100.0 * ba / bk if bk else 0.0}
+        return MetricResult(values, per_clip, notes)
+
+
+class PhysicalFootContact:
+    """EDGE's PFC (x 10,000; lower is better)."""
+
+    needs: tuple[str, ...] = ()
+
+    def __init__(self, feet: list[str] | None = None):
+        self.feet = feet
+
+    def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
+        """Mean over clips; clips whose root never accelerates score 0 (with a note)."""
+        require_clips(generated, 1, "PFC")
+        per_clip, notes = {}, []
+        for clip in generated:
+            p = require_frames(clip, 3, "PFC")
+            score = pfc_clip(p, clip.fps, foot_indices(clip, self.feet))
+            if score is None:
+                notes.append(f"PFC: {clip.name}: the root never accelerates (constant motion); scored 0")
+                score = 0.0
+            per_clip[clip.name] = {"PFC": SCALE * score}
+        return MetricResult({"PFC": float(np.mean([v["PFC"] for v in per_clip.values()]))}, per_clip, notes)
+
+
+def build_fid_k(config: Any, **_: Any) -> FeatureFID:
+    """``fid-k``."""
+    return FeatureFID("kinetic", config.compat)
+
+
+def build_fid_g(config: Any, **_: Any) -> FeatureFID:
+    """``fid-g``."""
+    return FeatureFID("geometric", config.compat)
+
+
+def build_div_k(config: Any, **_: Any) -> FeatureDiversity:
+    """``div-k``."""
+    return FeatureDiversity("kinetic", config.compat)
+
+
+def build_div_g(config: Any, **_: Any) -> FeatureDiversity:
+    """``div-g``."""
+    return FeatureDiversity("geometric", config.compat)
+
+
+def build_bas_bailando(config: Any, **_: Any) -> BailandoBAS:
+    """``bas-bailando``."""
+    return BailandoBAS(config.smooth_seconds, config.sigma_seconds)
+
+
+def build_bas_fact(config: Any, **_: Any) -> FactBAS:
+    """``bas-fact``."""
+    return FactBAS(config.order_seconds, config.sigma_seconds)
+
+
+def build_freezing(config: Any, **_: Any) -> Freezing:
+    """``freezing``."""
+    return Freezing(config.threshold, config.min_seconds, config.auc_max, config.auc_steps)
+
+
+def build_fpd(config: Any, **_: Any) -> FrechetPose:
+    """``fpd``."""
+    return FrechetPose(1, config.root_relative)
+
+
+def build_fmd(config: Any, **_: Any) -> FrechetPose:
+    """``fmd``."""
+    return FrechetPose(3, config.root_relative)
+
+
+def build_beat_offset(config: Any, **_: Any) -> BeatOffset:
+    """``beat-offset``."""
+    return BeatOffset(config.hips, config.smooth_seconds)
+
+
+def build_beat_coverage(config: Any, **_: Any) -> BeatCoverage:
+    """``beat-coverage``."""
+    return BeatCoverage(config.tolerance_seconds, config.smooth_seconds)
+
+
+def build_pfc(config: Any, **_: Any) -> PhysicalFootContact:
+    """``pfc``."""
+    return PhysicalFootContact(config.feet)
