@@ -30,7 +30,9 @@ def main() -> None:
         t2 = time.perf_counter()
         steps = recipe.training.steps
         rows.append(("data preparation (12 songs × 12 s, energy features)", f"{t1 - t0:.2f} s"))
-        rows.append(("training, 600 steps × 64 segments", f"{t2 - t1:.2f} s ({steps * 64 / (t2 - t1):,.0f} segments/s)"))
+        rows.append(
+            ("training, 600 steps × 64 segments", f"{t2 - t1:.2f} s ({steps * 64 / (t2 - t1):,.0f} segments/s)")
+        )
         rows.append(("final validation L1 (standardized units)", f"{result.val_loss:.4f}"))
         song = Path(tmp) / "song.wav"
         write_wav(song, click_track(np.arange(0, 60, 0.5), 60.0, 22050, np.random.default_rng(0)), 22050)
@@ -40,8 +42,14 @@ def main() -> None:
             compose(r, music=[str(song)], checkpoint=str(result.checkpoint), out_dir=str(Path(tmp) / "out"), quiet=True)
             t4 = time.perf_counter()
             frames = 1200 * samples
-            rows.append((f"compose 60 s song, {samples} sample(s) (incl. features)", f"{t4 - t3:.2f} s ({frames / (t4 - t3):,.0f} frames/s)"))
-    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, torch {torch.__version__}, threads {torch.get_num_threads()}\n")
+            rows.append(
+                (
+                    f"compose 60 s song, {samples} sample(s) (incl. features)",
+                    f"{t4 - t3:.2f} s ({frames / (t4 - t3):,.0f} frames/s)",
+                )
+            )
+    threads = torch.get_num_threads()
+    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, torch {torch.__version__}, threads {threads}\n")
     print("| what | figure |\n|---|---|")
     for what, figure in rows:
         print(f"| {what} | {figure} |")

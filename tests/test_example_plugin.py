@@ -27,7 +27,7 @@ def example_plugin(monkeypatch):
 def test_example_plugin_works_from_a_recipe(example_plugin):
     with registered_plugin(example_plugin, "loudness") as registry:
         assert registry.get("feature", "loudness").plugin == "loudness"
-        recipe = load_recipe("core-synthetic", ['features.music=[{plugin: energy}, {plugin: loudness, window: 0.1}]'])
+        recipe = load_recipe("core-synthetic", ["features.music=[{plugin: energy}, {plugin: loudness, window: 0.1}]"])
         extractor = recipe.features["music"][1].build()
         rate = 8000
         samples = np.concatenate([np.zeros(rate), 0.5 * np.ones(rate)]).astype(np.float32)
@@ -35,4 +35,4 @@ def test_example_plugin_works_from_a_recipe(example_plugin):
         assert out.shape == (20, 1)
         assert out[2, 0] == pytest.approx(-80.0) and out[15, 0] == pytest.approx(20 * np.log10(0.5), abs=1e-4)
         with pytest.raises(RecipeError, match=r"features\.music\.1\.window"):
-            load_recipe("core-synthetic", ['features.music=[{plugin: energy}, {plugin: loudness, window: 5}]'])
+            load_recipe("core-synthetic", ["features.music=[{plugin: energy}, {plugin: loudness, window: 5}]"])

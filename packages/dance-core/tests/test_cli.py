@@ -40,7 +40,9 @@ def test_user_error_is_one_line_without_traceback(capsys, tmp_path):
         f"dance: error: {bad}:2: model.head.plugin: unknown head 'flw'" + err.split("'flw'", 1)[1].splitlines()[0]
     ]
     assert "Traceback" not in err
-    with pytest.raises(Exception):
+    from dance_core.errors import RecipeError
+
+    with pytest.raises(RecipeError):  # --debug lets the exception (and its traceback) through
         main(["--debug", "recipe", "validate", str(bad)])
 
 
@@ -68,8 +70,21 @@ def test_synth_train_compose_end_to_end(capsys, tmp_path):
     assert run(capsys, "-q", "synth", str(tmp_path / "s.wav"), "--bpm", "100", "--seconds", "3")[0] == 0
     code, out, _ = run(capsys, "-q", "train", "core-synthetic", "-o", str(tmp_path / "run"), *tiny)
     assert code == 0 and "trained 20 steps" in out
-    code, out, _ = run(capsys, "-q", "compose", "core-synthetic", "--checkpoint", str(tmp_path / "run" / "model.safetensors"),
-                       "--music", str(tmp_path / "s.wav"), "-o", str(tmp_path / "out"), "--samples", "2", *tiny)
+    code, out, _ = run(
+        capsys,
+        "-q",
+        "compose",
+        "core-synthetic",
+        "--checkpoint",
+        str(tmp_path / "run" / "model.safetensors"),
+        "--music",
+        str(tmp_path / "s.wav"),
+        "-o",
+        str(tmp_path / "out"),
+        "--samples",
+        "2",
+        *tiny,
+    )
     assert code == 0 and out.split() == [str(tmp_path / "out" / "s-0.npz"), str(tmp_path / "out" / "s-1.npz")]
     with np.load(tmp_path / "out" / "s-1.npz") as f:
         assert f["values"].shape == (60, 18)

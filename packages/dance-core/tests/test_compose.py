@@ -21,8 +21,11 @@ def checkpoint(tmp_path_factory):
 
 def song(path, seconds=3.0, bpm=120.0, rate=16000, silent=False):
     beats = np.arange(0.0, seconds, 60 / bpm)
-    audio = np.zeros(int(seconds * rate), np.float32) if silent else click_track(
-        beats, seconds, rate, np.random.default_rng(0))
+    audio = (
+        np.zeros(int(seconds * rate), np.float32)
+        if silent
+        else click_track(beats, seconds, rate, np.random.default_rng(0))
+    )
     write_wav(path, audio, rate)
     return str(path)
 
@@ -44,7 +47,13 @@ def test_same_seed_same_dance_and_seconds_option(tiny_recipe, checkpoint, tmp_pa
     outs = []
     for i, extra in enumerate([(), (), ("seed=5",)]):
         out = tmp_path / f"o{i}"
-        compose(tiny_recipe(*extra, "compose.seconds=3.5"), music=[s], checkpoint=str(checkpoint), out_dir=str(out), quiet=True)
+        compose(
+            tiny_recipe(*extra, "compose.seconds=3.5"),
+            music=[s],
+            checkpoint=str(checkpoint),
+            out_dir=str(out),
+            quiet=True,
+        )
         with np.load(out / "s.npz") as f:
             outs.append(f["values"])
     assert outs[0].shape == (70, 18)  # longer than the song: the music is padded past its end
@@ -71,7 +80,13 @@ def test_bad_music_gives_one_line_errors(tiny_recipe, checkpoint, tmp_path):
     (tmp_path / "song.xyz").write_bytes(b"data")
     for name, message in cases.items():
         with pytest.raises(DataError) as err:
-            compose(recipe, music=[str(tmp_path / name)], checkpoint=str(checkpoint), out_dir=str(tmp_path / "o"), quiet=True)
+            compose(
+                recipe,
+                music=[str(tmp_path / name)],
+                checkpoint=str(checkpoint),
+                out_dir=str(tmp_path / "o"),
+                quiet=True,
+            )
         assert message in str(err.value) and name in str(err.value) and "\n" not in str(err.value)
     short = song(tmp_path / "tiny.wav", 0.2)
     with pytest.raises(DataError, match="0.20 s long"):
@@ -84,7 +99,9 @@ def test_compose_needs_a_matching_checkpoint(tiny_recipe, checkpoint, tmp_path):
     with pytest.raises(RecipeError, match="compose.checkpoint"):
         compose(tiny_recipe(), music=[s], out_dir=str(tmp_path), quiet=True)
     with pytest.raises(CheckpointError, match="model.head.loss differ"):
-        compose(tiny_recipe("model.head.loss=l2"), music=[s], checkpoint=str(checkpoint), out_dir=str(tmp_path), quiet=True)
+        compose(
+            tiny_recipe("model.head.loss=l2"), music=[s], checkpoint=str(checkpoint), out_dir=str(tmp_path), quiet=True
+        )
 
 
 def test_seed_motion_file(tiny_recipe, checkpoint, tmp_path):
@@ -94,11 +111,21 @@ def test_seed_motion_file(tiny_recipe, checkpoint, tmp_path):
     s = song(tmp_path / "s.wav", 2.0)
     seed = np.tile(np.linspace(0, 1, 18, dtype=np.float32), (4, 1))
     NpzFormat().write(MotionData(seed, 20.0), tmp_path / "seed.npz")
-    paths = compose(tiny_recipe(f"compose.seed_motion={tmp_path / 'seed.npz'}"), music=[s],
-                    checkpoint=str(checkpoint), out_dir=str(tmp_path / "o"), quiet=True)
+    paths = compose(
+        tiny_recipe(f"compose.seed_motion={tmp_path / 'seed.npz'}"),
+        music=[s],
+        checkpoint=str(checkpoint),
+        out_dir=str(tmp_path / "o"),
+        quiet=True,
+    )
     with np.load(paths[0]) as f:
         np.testing.assert_allclose(f["values"][:10], np.tile(seed[:1], (10, 1)), atol=1e-5)
     NpzFormat().write(MotionData(seed[:, :5], 20.0), tmp_path / "bad.npz")
     with pytest.raises(DataError, match="5 channels"):
-        compose(tiny_recipe(f"compose.seed_motion={tmp_path / 'bad.npz'}"), music=[s],
-                checkpoint=str(checkpoint), out_dir=str(tmp_path / "o"), quiet=True)
+        compose(
+            tiny_recipe(f"compose.seed_motion={tmp_path / 'bad.npz'}"),
+            music=[s],
+            checkpoint=str(checkpoint),
+            out_dir=str(tmp_path / "o"),
+            quiet=True,
+        )

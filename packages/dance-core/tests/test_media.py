@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from dance_core.atomic import atomic_path, write_text
+from dance_core.components.configs import CosineConfig, MultiStepConfig
 from dance_core.components.energy import EnergyFeatures
 from dance_core.components.schedules import build_cosine, build_multistep
-from dance_core.components.configs import CosineConfig, MultiStepConfig
 from dance_core.components.synthetic import click_track
 from dance_core.components.wav import WavReader, write_wav
 from dance_core.errors import DataError
@@ -61,7 +61,11 @@ def test_energy_features_shape_alignment_and_onsets():
     feats = ext.extract(FeatureInputs(audio.n_frames(fps), audio), fps)
     assert feats.shape == (120, ext.dim()) == (120, 4) and np.isfinite(feats).all()
     onset = feats[:, -1]
-    peaks = [i for i in range(1, len(onset) - 1) if onset[i] > onset[i - 1] and onset[i] >= onset[i + 1] and onset[i] > 0.5 * onset.max()]
+    peaks = [
+        i
+        for i in range(1, len(onset) - 1)
+        if onset[i] > onset[i - 1] and onset[i] >= onset[i + 1] and onset[i] > 0.5 * onset.max()
+    ]
     expected = np.round(beats * fps).astype(int)
     assert len(peaks) == len(expected)
     assert np.max(np.abs(np.array(peaks) - expected)) <= 1  # within one frame of each click

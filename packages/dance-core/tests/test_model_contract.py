@@ -67,7 +67,9 @@ class Plugin:
 
     @hookimpl
     def register_heads(self, register):
-        register("test-gru", ComponentConfig, lambda c, *, motion_dim, latent_dim, **_: StatefulHead(motion_dim, latent_dim))
+        register(
+            "test-gru", ComponentConfig, lambda c, *, motion_dim, latent_dim, **_: StatefulHead(motion_dim, latent_dim)
+        )
 
 
 SMALL = ["data.dataset.songs=4", "data.dataset.seconds=6", "training.batch_size=8", "training.val_every=1000"]
@@ -75,9 +77,17 @@ SMALL = ["data.dataset.songs=4", "data.dataset.seconds=6", "training.batch_size=
 
 def test_song_level_family_trains_and_generates_through_core(tmp_path):
     with registered_plugin(Plugin(), "contract"):
-        recipe = load_recipe("core-synthetic", [*SMALL, "model.encoder={plugin: test-song}",
-                                                "model.head={plugin: test-gru}", "data.segment_frames=24",
-                                                "training.steps=60", "training.schedules={q: {plugin: constant, value: 3}}"])
+        recipe = load_recipe(
+            "core-synthetic",
+            [
+                *SMALL,
+                "model.encoder={plugin: test-song}",
+                "model.head={plugin: test-gru}",
+                "data.segment_frames=24",
+                "training.steps=60",
+                "training.schedules={q: {plugin: constant, value: 3}}",
+            ],
+        )
         trainer = Trainer(recipe, tmp_path, quiet=True)
         model = trainer.model
         assert isinstance(model.encoder, Encoder) and isinstance(model.head, OutputHead)

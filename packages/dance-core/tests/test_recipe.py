@@ -125,8 +125,8 @@ class Heads:
             scale: float = 1.0
 
         def build(config, *, motion_dim, latent_dim, **_):
-            from dance_core.components.modules import RegressionHead
             from dance_core.components.configs import RegressionHeadConfig
+            from dance_core.components.modules import RegressionHead
 
             head = RegressionHead(RegressionHeadConfig(loss="l2"), motion_dim, latent_dim, None)
             head.scale = config.scale

@@ -85,7 +85,10 @@ def test_resume_equals_an_uninterrupted_run(tiny_recipe, tmp_path):
     assert all(torch.equal(a[k], b[k]) for k in a)
     log_a = (tmp_path / "a" / "log.jsonl").read_text().splitlines()
     log_b = (tmp_path / "b" / "log.jsonl").read_text().splitlines()
-    strip = lambda lines: [{k: v for k, v in json.loads(x).items() if k != "segments_per_s"} for x in lines]
+
+    def strip(lines):
+        return [{k: v for k, v in json.loads(x).items() if k != "segments_per_s"} for x in lines]
+
     assert [r for r in strip(log_b) if r["step"] != 17] == strip(log_a)
 
 
@@ -113,8 +116,11 @@ class NanHead(RegressionHead):
 class NanPlugin:
     @hookimpl
     def register_heads(self, register):
-        register("nan-head", RegressionHeadConfig,
-                 lambda c, *, motion_dim, latent_dim, **_: NanHead(c, motion_dim, latent_dim, None))
+        register(
+            "nan-head",
+            RegressionHeadConfig,
+            lambda c, *, motion_dim, latent_dim, **_: NanHead(c, motion_dim, latent_dim, None),
+        )
 
 
 def test_nan_loss_stops_with_message_and_keeps_last_good_checkpoint(tiny_recipe, tmp_path):
@@ -129,9 +135,7 @@ def test_nan_loss_stops_with_message_and_keeps_last_good_checkpoint(tiny_recipe,
 
 
 def test_stages_train_only_their_prefixes(tiny_recipe, tmp_path):
-    recipe = tiny_recipe(
-        "training.stages=[{name: heads, steps: 10, trainable: [head.]}, {name: all, steps: 5}]"
-    )
+    recipe = tiny_recipe("training.stages=[{name: heads, steps: 10, trainable: [head.]}, {name: all, steps: 5}]")
     trainer = Trainer(recipe, tmp_path, quiet=True)
     before = {k: v.clone() for k, v in trainer.model.state_dict().items()}
     trainer.run(stop_at=10)

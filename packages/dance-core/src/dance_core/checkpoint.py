@@ -115,13 +115,12 @@ def _diff(a: Any, b: Any, loc: str = "") -> list[str]:
 
 def check_matches(ckpt: Checkpoint, recipe: Recipe) -> None:
     """Refuse a recipe whose fps, features or model differ from the checkpoint's."""
-    saved = {key: ckpt.recipe.get(key) for key in ("fps", "features", "model")}
+    saved = {key: ckpt.recipe.get(key) for key in ("fps", "features", "model", "motion")}
+    saved = {key: value for key, value in saved.items() if value is not None}
     differ = _diff(saved, recipe.model_dict())
     if differ:
         shown = ", ".join(differ[:4]) + (f" and {len(differ) - 4} more" if len(differ) > 4 else "")
-        raise CheckpointError(
-            f"{ckpt.path}: checkpoint does not match recipe {recipe._origin}: {shown} differ"
-        )
+        raise CheckpointError(f"{ckpt.path}: checkpoint does not match recipe {recipe._origin}: {shown} differ")
 
 
 def load_weights(model: torch.nn.Module, ckpt: Checkpoint) -> None:
@@ -131,10 +130,13 @@ def load_weights(model: torch.nn.Module, ckpt: Checkpoint) -> None:
     extra = sorted(set(ckpt.weights) - set(own))
     shapes = [k for k in own if k in ckpt.weights and own[k].shape != ckpt.weights[k].shape]
     if missing or extra or shapes:
-        detail = (
-            f"missing {missing[0]}" if missing else f"unexpected {extra[0]}" if extra
-            else f"{shapes[0]} has shape {tuple(ckpt.weights[shapes[0]].shape)}, model wants {tuple(own[shapes[0]].shape)}"
-        )
+        if missing:
+            detail = f"missing {missing[0]}"
+        elif extra:
+            detail = f"unexpected {extra[0]}"
+        else:
+            got, want = tuple(ckpt.weights[shapes[0]].shape), tuple(own[shapes[0]].shape)
+            detail = f"{shapes[0]} has shape {got}, model wants {want}"
         raise CheckpointError(f"{ckpt.path}: weights do not fit the recipe's model ({detail})")
     model.load_state_dict(ckpt.weights)
 

@@ -40,8 +40,7 @@ def _load_entry_points(pm: pluggy.PluginManager) -> None:
                 continue
             dist = ep.dist.name if ep.dist is not None else "?"
             raise PluginError(
-                f"plugin {ep.name!r} from {dist} failed to load ({ep.value}): "
-                f"{type(exc).__name__}: {exc}"
+                f"plugin {ep.name!r} from {dist} failed to load ({ep.value}): {type(exc).__name__}: {exc}"
             ) from exc
         raise PluginError(f"loading plugins failed: {type(exc).__name__}: {exc}") from exc
 

@@ -22,6 +22,7 @@ KINDS: dict[str, str] = {
     "feature": "register_feature_extractors",
     "audio-reader": "register_audio_readers",
     "motion-format": "register_motion_formats",
+    "motion-representation": "register_motion_representations",
     "dataset": "register_datasets",
     "metric": "register_metrics",
     "schedule": "register_schedules",
@@ -80,8 +81,7 @@ class Registry:
                     raise
                 except Exception as exc:
                     raise PluginError(
-                        f"plugin {impl.plugin_name!r} failed in {hook_name}: "
-                        f"{type(exc).__name__}: {exc}"
+                        f"plugin {impl.plugin_name!r} failed in {hook_name}: {type(exc).__name__}: {exc}"
                     ) from exc
 
     def _register_callback(self, kind: str, plugin: str, dist: str, version: str):
@@ -98,9 +98,7 @@ class Registry:
                     f"two plugins register the {kind} {name!r}: {existing.plugin} "
                     f"({existing.distribution} {existing.version}) and {plugin} ({dist} {version})"
                 )
-            self._entries[kind][name] = Entry(
-                kind, name, config, build, plugin, dist, version, description, dict(info)
-            )
+            self._entries[kind][name] = Entry(kind, name, config, build, plugin, dist, version, description, dict(info))
 
         return register
 

@@ -18,8 +18,12 @@ def compose(args: Namespace) -> int:
     from dance_core.compose import compose as run
 
     extra = []
-    for field, value in (("samples", args.samples), ("temperature", args.temperature),
-                         ("seconds", args.seconds), ("seed_motion", args.seed_motion)):
+    for field, value in (
+        ("samples", args.samples),
+        ("temperature", args.temperature),
+        ("seconds", args.seconds),
+        ("seed_motion", args.seed_motion),
+    ):
         if value is not None:
             extra.append(f"compose.{field}={value}")
     if args.formats:
@@ -51,9 +55,19 @@ def plugins(args: Namespace) -> int:
 
     registry = get_registry()
     if args.json:
-        data = {kind: [{"name": e.name, "plugin": e.plugin, "distribution": e.distribution,
-                        "version": e.version, "description": e.description}
-                       for e in registry.entries(kind)] for kind in KINDS}
+        data = {
+            kind: [
+                {
+                    "name": e.name,
+                    "plugin": e.plugin,
+                    "distribution": e.distribution,
+                    "version": e.version,
+                    "description": e.description,
+                }
+                for e in registry.entries(kind)
+            ]
+            for kind in KINDS
+        }
         print(json.dumps(data, indent=2))
         return 0
     table = Table(title="dance components")

@@ -17,8 +17,14 @@ class Parser(argparse.ArgumentParser):
 
 
 def _sets(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--set", dest="sets", action="append", default=[], metavar="FIELD=VALUE",
-                   help="override a recipe field, e.g. --set training.steps=100")
+    p.add_argument(
+        "--set",
+        dest="sets",
+        action="append",
+        default=[],
+        metavar="FIELD=VALUE",
+        help="override a recipe field, e.g. --set training.steps=100",
+    )
 
 
 def build_parser() -> Parser:

@@ -74,11 +74,13 @@ class SyntheticBeats:
         pose = (1 - blend) * self._pose(moves[bar], phase) + blend * self._pose(moves[nxt], phase)
         motion = (self.rest[None] + pose).reshape(n, -1).astype(np.float32)
         texts = tuple(
-            TextSpan(MOVES[moves[b]], max(0.0, offset + (b - 1) * BEATS_PER_BAR * period),
-                     min(cfg.seconds, offset + b * BEATS_PER_BAR * period))
+            TextSpan(
+                MOVES[moves[b]],
+                max(0.0, offset + (b - 1) * BEATS_PER_BAR * period),
+                min(cfg.seconds, offset + b * BEATS_PER_BAR * period),
+            )
             for b in range(n_bars)
-            if offset + (b - 1) * BEATS_PER_BAR * period < cfg.seconds
-            and offset + b * BEATS_PER_BAR * period > 0
+            if offset + (b - 1) * BEATS_PER_BAR * period < cfg.seconds and offset + b * BEATS_PER_BAR * period > 0
         )
         return ClipSource(
             name=f"synthetic-{index:03d}",

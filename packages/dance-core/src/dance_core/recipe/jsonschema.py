@@ -14,6 +14,7 @@ SLOTS: dict[str, list[tuple[str, ...]]] = {
     "encoder": [("$defs", "ModelSpec", "properties", "encoder")],
     "head": [("$defs", "ModelSpec", "properties", "head")],
     "dataset": [("$defs", "DataSpec", "properties", "dataset")],
+    "motion-representation": [("properties", "motion")],
     "schedule": [
         ("$defs", "TrainingSpec", "properties", "lr_schedule"),
         ("$defs", "TrainingSpec", "properties", "schedules", "additionalProperties"),

@@ -53,9 +53,8 @@ class DataSpec(Strict):
 
     dataset: ComponentSpec
     val_fraction: float = Field(0.1, ge=0.0, lt=1.0)
-    segment_frames: PositiveInt | None = Field(
-        None, description="training segment length for song-level encoders"
-    )
+    mirror: bool = Field(False, description="add left/right mirrored copies of skeletal training clips")
+    segment_frames: PositiveInt | None = Field(None, description="training segment length for song-level encoders")
 
 
 class OptimizerSpec(Strict):
@@ -124,6 +123,9 @@ class Recipe(Strict):
     seed: int = 0
     fps: PositiveFloat = 20.0
     features: dict[str, list[ComponentSpec]] = Field(default_factory=dict)
+    motion: ComponentSpec | None = Field(
+        None, description="motion representation: skeletal motion to model features and back"
+    )
     model: ModelSpec
     data: DataSpec | None = None
     training: TrainingSpec = Field(default_factory=TrainingSpec)
@@ -139,6 +141,8 @@ class Recipe(Strict):
                 found.append(("feature", ("features", stream, i), spec))
         for name, spec in self.model.conditioners.items():
             found.append(("conditioner", ("model", "conditioners", name), spec))
+        if self.motion is not None:
+            found.append(("motion-representation", ("motion",), self.motion))
         found.append(("encoder", ("model", "encoder"), self.model.encoder))
         found.append(("head", ("model", "head"), self.model.head))
         if self.data is not None:
@@ -156,6 +160,6 @@ class Recipe(Strict):
         return str(p if p.is_absolute() else Path(self._dir) / p)
 
     def model_dict(self) -> dict[str, Any]:
-        """The parts a checkpoint must agree with: fps, features and model."""
+        """The parts a checkpoint must agree with: fps, features, model (and motion, when set)."""
         data = self.model_dump(mode="json")
-        return {key: data[key] for key in ("fps", "features", "model")}
+        return {key: data[key] for key in ("fps", "features", "model", "motion") if data[key] is not None}
