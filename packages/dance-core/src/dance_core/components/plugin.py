@@ -98,3 +98,11 @@ def register_recipes(register):
     """Core's bundled recipes."""
     register("core-synthetic", None, str(RECIPES / "core-synthetic.yaml"),
              "window-mlp + regression head on synthetic beats; trains on CPU in seconds")
+
+
+@hookimpl
+def register_commands(subparsers):
+    """Core's commands that live outside the CLI's main module: ``dance evaluate``."""
+    from dance_core.cli.evaluate import add_parser
+
+    add_parser(subparsers)

@@ -1,0 +1,124 @@
+"""Folders of motion files to ``JointClip``s (motion formats + forward kinematics) with music beats."""
+
+from __future__ import annotations
+
+import re
+from collections import Counter
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from dance_core.errors import DataError
+from dance_core.evaluation import music as M
+from dance_core.evaluation.clips import resampled, z_up_to_y_up
+from dance_core.protocols import JointClip, MotionData
+from dance_core.registry import Registry
+
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "dm": 0.1, "in": 0.0254, "inch": 0.0254}
+_POSITION_CHANNEL = re.compile(r"^(.+)[._]([xyzXYZ])$")
+
+
+def motion_files(folder: Path, registry: Registry) -> list[Path]:
+    """Every file in ``folder`` whose suffix a registered motion format reads, sorted by name."""
+    if not folder.is_dir():
+        raise DataError(f"{folder}: not a folder of motion files")
+    suffixes = {s for e in registry.entries("motion-format") for s in e.info.get("suffixes", ())}
+    files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in suffixes)
+    if not files:
+        raise DataError(f"{folder}: no motion files (readable: {', '.join(sorted(suffixes))})")
+    return files
+
+
+def read_motion_file(path: Path, registry: Registry) -> MotionData:
+    """Read one motion file with the format registered for its suffix (the highest priority wins)."""
+    able = [e for e in registry.entries("motion-format") if path.suffix.lower() in e.info.get("suffixes", ())]
+    if not able:
+        raise DataError(f"{path}: no motion format reads {path.suffix!r}")
+    entry = max(able, key=lambda e: e.info.get("priority", 0))
+    return entry.build().read(str(path))
+
+
+def joint_positions(data: MotionData, where: str) -> tuple[np.ndarray, list[str] | None, str]:
+    """``(T, J, 3)`` positions in metres, joint names, and the up axis of a read motion.
+
+    Skeletal motion (BVH, SMPL, ...) goes through forward kinematics; a frame array whose
+    channels are joint coordinates (``name.x``, ``name.y``, ``name.z``) is reshaped as it is.
+    """
+    skeletal = getattr(data, "skeleton_motion", None)
+    if skeletal is not None:
+        skeleton = skeletal.skeleton
+        units = str(getattr(skeleton, "units", "m")).lower()
+        if units not in UNITS:
+            raise DataError(f"{where}: unknown skeleton units {units!r} (known: {', '.join(UNITS)})")
+        positions = np.asarray(skeletal.positions(), dtype=np.float64) * UNITS[units]
+        return positions, list(skeleton.names), str(getattr(skeleton, "up", "y")).lower()
+    channels = list(data.channels or [])
+    values = np.asarray(data.values, dtype=np.float64)
+    matches = [_POSITION_CHANNEL.match(c) for c in channels]
+    if channels and len(channels) % 3 == 0 and all(matches):
+        triples = [matches[i : i + 3] for i in range(0, len(matches), 3)]
+        if all([m.group(2).lower() for m in t] == ["x", "y", "z"] and len({m.group(1) for m in t}) == 1 for t in triples):
+            names = [t[0].group(1) for t in triples]
+            return values.reshape(len(values), -1, 3), names, "y"
+    raise DataError(
+        f"{where}: cannot get joint positions: the format gives no skeleton and the channels are not "
+        f"joint coordinates (name.x, name.y, name.z)"
+    )
+
+
+def load_clips(
+    folder: str | Path, registry: Registry, up: str | None = None, on_file: Callable[[Path], None] | None = None
+) -> list[JointClip]:
+    """Every motion file of a folder as a Y-up ``JointClip`` named by its file stem.
+
+    ``up`` overrides the up axis the format reports (``"y"`` or ``"z"``); ``on_file`` is called
+    before each file is read (progress display).
+    """
+    clips = []
+    for path in motion_files(Path(folder), registry):
+        if on_file:
+            on_file(path)
+        data = read_motion_file(path, registry)
+        positions, names, axis = joint_positions(data, str(path))
+        axis = up or axis
+        if axis not in ("y", "z"):
+            raise DataError(f"{path}: up axis must be 'y' or 'z', got {axis!r}")
+        if axis == "z":
+            positions = z_up_to_y_up(positions)
+        clips.append(JointClip(path.stem, positions, float(data.fps), names, meta={"path": str(path)}))
+    return clips
+
+
+def common_fps(clips: list[JointClip], fps: float | None = None) -> list[JointClip]:
+    """Resample every clip to ``fps`` (default: the most common rate among the clips)."""
+    target = fps or Counter(c.fps for c in clips).most_common(1)[0][0]
+    return [resampled(c, target) for c in clips]
+
+
+def attach_music(clips: list[JointClip], music_dir: str | Path, registry: Registry) -> list[str]:
+    """Set ``music_beats`` of every clip whose song is in ``music_dir``; return notes on the sources."""
+    folder = Path(music_dir)
+    if not folder.is_dir():
+        raise DataError(f"{folder}: not a folder of music")
+    from dance_core.data.features import load_audio
+
+    audio_suffixes = {s for e in registry.entries("audio-reader") for s in e.info.get("suffixes", ())}
+    cache: dict[Path, np.ndarray] = {}
+    methods: Counter[str] = Counter()
+    notes = []
+    for clip in clips:
+        song = M.find_song(folder, clip.name, audio_suffixes)
+        if song is None:
+            notes.append(f"music: no song for {clip.name} in {folder}")
+            continue
+        if song not in cache:
+            if song.suffix == ".beats":
+                cache[song], method = M.read_beats_file(song), "beat annotation files"
+            else:
+                cache[song], method = M.audio_beats(load_audio(song, registry))
+            methods[method] += 1
+        clip.music_beats = cache[song]
+        clip.meta["music"] = str(song)
+    notes += [f"music beats from {method} ({n} song(s))" for method, n in methods.items()]
+    return notes
