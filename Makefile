@@ -16,6 +16,9 @@ $(STAMP): requirements-dev.txt $(PYPROJECTS)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade "pip>=23.2"
 	$(PY) -m pip install --quiet -r requirements-dev.txt
+	# madmom 0.16.1 (dance-audio[madmom]) builds only against the installed numpy and Cython
+	$(PY) -m pip install --quiet cython==3.3.1 "setuptools==80.10.2"
+	$(PY) -m pip install --quiet --no-build-isolation madmom==0.16.1 mido==1.3.3
 	$(PY) -m pip check
 	touch $(STAMP)
 

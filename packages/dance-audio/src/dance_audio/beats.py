@@ -1,0 +1,102 @@
+"""Beat and downbeat tracking (madmom's DBN on the downbeat RNN, librosa as the fallback) and the
+``beats`` extractor: one-hot beat and downbeat frames and the phase within beat and bar."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from dance_core.errors import DataError
+from dance_core.media import Audio, FeatureInputs
+
+from .timing import event_phase, events_to_onehot, resample
+
+LIBROSA_RATE, LIBROSA_HOP = 22050, 512
+
+
+@dataclass(frozen=True)
+class Beats:
+    """Beat times in seconds and each beat's position in its bar (1 = downbeat)."""
+
+    times: np.ndarray
+    positions: np.ndarray
+
+    @property
+    def downbeats(self) -> np.ndarray:
+        """Times of the beats that start a bar."""
+        return self.times[self.positions == 1]
+
+
+def track_madmom(audio: Audio, beats_per_bar: list[int], min_bpm: float, max_bpm: float) -> Beats:
+    """madmom's DBN downbeat tracker on the (torch-ported) RNN activations."""
+    from .downbeat import NATIVE_FPS, activations
+    from .madmom_compat import import_madmom
+
+    import_madmom()
+    from madmom.features.downbeats import DBNDownBeatTrackingProcessor
+
+    act = activations(audio, "torch")
+    dbn = DBNDownBeatTrackingProcessor(beats_per_bar=list(beats_per_bar), min_bpm=min_bpm, max_bpm=max_bpm,
+                                       fps=NATIVE_FPS)
+    result = np.asarray(dbn(act), dtype=np.float64).reshape(-1, 2)
+    return Beats(result[:, 0], result[:, 1].astype(np.int64))
+
+
+def track_librosa(audio: Audio, beats_per_bar: list[int], min_bpm: float, max_bpm: float) -> Beats:
+    """librosa's dynamic-programming beat tracker; bars start on the beat phase with the most onset energy."""
+    from .numba_cache import import_librosa
+
+    librosa = import_librosa()
+    y = resample(audio.samples, audio.rate, LIBROSA_RATE)
+    onset = librosa.onset.onset_strength(y=y, sr=LIBROSA_RATE, hop_length=LIBROSA_HOP)
+    tempo_guess = float(np.sqrt(min_bpm * max_bpm))
+    _, frames = librosa.beat.beat_track(onset_envelope=onset, sr=LIBROSA_RATE, hop_length=LIBROSA_HOP,
+                                        start_bpm=tempo_guess)
+    frames = np.asarray(frames, dtype=np.int64)
+    times = frames * LIBROSA_HOP / LIBROSA_RATE
+    bar = max(beats_per_bar)
+    strength = onset[frames] if len(frames) else np.zeros(0)
+    offset = int(np.argmax([strength[k::bar].mean() if len(strength[k::bar]) else 0.0 for k in range(bar)]))
+    positions = (np.arange(len(times)) - offset) % bar + 1
+    return Beats(times, positions.astype(np.int64))
+
+
+def track_beats(audio: Audio, tracker: str = "auto", beats_per_bar=(3, 4), min_bpm: float = 55.0,
+                max_bpm: float = 160.0) -> Beats:
+    """Beats of a song: madmom when installed (``auto``), else librosa."""
+    from .madmom_compat import madmom_available
+
+    if tracker == "madmom" or (tracker == "auto" and madmom_available()):
+        return track_madmom(audio, list(beats_per_bar), min_bpm, max_bpm)
+    return track_librosa(audio, list(beats_per_bar), min_bpm, max_bpm)
+
+
+class BeatFeatures:
+    """Six columns: beat one-hot, downbeat one-hot, sin and cos of the beat phase and of the bar phase."""
+
+    def __init__(self, tracker: str, beats_per_bar: list[int], min_bpm: float, max_bpm: float):
+        self.tracker, self.beats_per_bar = tracker, list(beats_per_bar)
+        self.min_bpm, self.max_bpm = min_bpm, max_bpm
+
+    def dim(self) -> int:
+        """Two one-hots and two (sin, cos) phase pairs."""
+        return 6
+
+    def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
+        """``(n_frames, 6)`` float32; each beat marks the frame nearest its time."""
+        if inputs.audio is None:
+            raise DataError("beats features need audio")
+        beats = track_beats(inputs.audio, self.tracker, self.beats_per_bar, self.min_bpm, self.max_bpm)
+        n = inputs.n_frames
+        beat_phase = 2 * np.pi * event_phase(beats.times, n, fps)
+        bar_phase = 2 * np.pi * event_phase(beats.downbeats, n, fps)
+        cols = [events_to_onehot(beats.times, n, fps), events_to_onehot(beats.downbeats, n, fps),
+                np.sin(beat_phase), np.cos(beat_phase), np.sin(bar_phase), np.cos(bar_phase)]
+        return np.stack(cols, axis=1).astype(np.float32)
+
+
+def build(config: Any, **_: Any) -> BeatFeatures:
+    """Build the ``beats`` extractor."""
+    return BeatFeatures(config.tracker, config.beats_per_bar, config.min_bpm, config.max_bpm)

@@ -1,0 +1,43 @@
+"""``dance features SONG -x NAME ... -o feats.npz [--plot feats.png]``."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+
+from dance_core.errors import DataError
+
+KIND = "feature"
+
+
+def run_features(args) -> int:
+    """Extract the named features of one song at ``args.fps`` and save them (and a plot) atomically."""
+    from dance_core.atomic import write_bytes
+    from dance_core.data.features import load_audio
+    from dance_core.media import FeatureInputs
+    from dance_core.registry import get_registry
+
+    registry = get_registry()
+    names = args.extractors or ["librosa-438"]
+    if args.fps <= 0:
+        raise DataError(f"--fps: must be positive, got {args.fps}")
+    audio = load_audio(Path(args.song), registry)
+    n_frames = audio.n_frames(args.fps)
+    inputs = FeatureInputs(n_frames=n_frames, audio=audio)
+    arrays: dict[str, np.ndarray] = {}
+    for name in names:
+        extractor = registry.get(KIND, name).build()
+        arrays[name] = np.asarray(extractor.extract(inputs, args.fps), dtype=np.float32)
+    buf = io.BytesIO()
+    np.savez(buf, fps=np.float32(args.fps), **arrays)
+    write_bytes(args.out, buf.getvalue())
+    shapes = ", ".join(f"{k} {v.shape[1]}" for k, v in arrays.items())
+    print(f"{args.out}: {n_frames} frames at {args.fps:g} fps ({shapes})")
+    if args.plot:
+        from .plot import plot_song
+
+        plot_song(audio, args.fps, Path(args.plot))
+        print(f"{args.plot}: mel spectrogram, onset envelope, beats and downbeats")
+    return 0

@@ -1,0 +1,80 @@
+"""Pydantic configs of dance-audio's components (a light module: registering imports nothing heavy)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field, PositiveFloat, PositiveInt
+
+from dance_core.config import ComponentConfig
+
+
+class SoundFileReaderConfig(ComponentConfig):
+    """No options: files are mixed to mono at their own rate (extractors resample)."""
+
+
+class Librosa438Config(ComponentConfig):
+    """DanceRevolution's 438-d set; audio is resampled to ``hop_length * fps`` Hz (15360 at 30 fps)."""
+
+    hop_length: PositiveInt = 512
+    n_fft: PositiveInt = 2048
+    n_mels: PositiveInt = 128
+    tempogram_window: PositiveInt = 384
+
+
+class MelConfig(ComponentConfig):
+    """Log-mel bands (dB) centred at i / fps; the window must cover the hop."""
+
+    n_mels: PositiveInt = 80
+    sample_rate: PositiveInt = 22050
+    n_fft: PositiveInt = 2048
+    fmin: float = Field(0.0, ge=0.0)
+    fmax: PositiveFloat | None = None
+    reference: Literal["max", "one"] = "one"
+
+
+class OnsetConfig(ComponentConfig):
+    """Spectral-flux onset strength on a mel spectrogram (librosa), centred at i / fps."""
+
+    n_mels: PositiveInt = 80
+    sample_rate: PositiveInt = 22050
+    n_fft: PositiveInt = 2048
+
+
+class DownbeatConfig(ComponentConfig):
+    """madmom's joint beat/downbeat RNN at 100 fps, resampled to the recipe's fps."""
+
+    backend: Literal["torch", "madmom"] = "torch"
+
+
+class BeatsConfig(ComponentConfig):
+    """Beat and downbeat times as one-hot frames and phases (sin, cos) within beat and bar.
+
+    The tempo range is a dance prior: beyond 160 BPM trackers mostly return the double of the
+    danced tempo (AIST++ music spans 80-135 BPM), so the default stops there (madmom's is 215).
+    """
+
+    tracker: Literal["auto", "madmom", "librosa"] = "auto"
+    beats_per_bar: list[PositiveInt] = Field(default_factory=lambda: [3, 4])
+    min_bpm: PositiveFloat = 55.0
+    max_bpm: PositiveFloat = 160.0
+
+
+class WordEmbeddingConfig(ComponentConfig):
+    """Token ids of each frame's instruction for a learned embedding (TM2D), from a vocabulary file."""
+
+    vocab: str
+    max_words: PositiveInt = 32
+
+
+class GloveConfig(ComponentConfig):
+    """Mean GloVe vector of each frame's instruction, from a user-supplied text file."""
+
+    path: str
+    dim: PositiveInt = 300
+
+
+class SentenceEmbeddingConfig(ComponentConfig):
+    """all-MiniLM-L6-v2 sentence embedding (384-d) of each frame's instruction, offline."""
+
+    normalize: bool = True

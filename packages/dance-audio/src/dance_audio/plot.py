@@ -1,0 +1,53 @@
+"""A PNG to check a song's features by eye: mel spectrogram, onset envelope, beats and downbeats."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from dance_core.media import Audio
+
+PLOT_FPS = 100.0
+
+
+def plot_song(audio: Audio, fps: float, out: Path) -> None:
+    """Draw the 80-band log-mel, the onset envelope and the tracked beats (downbeats bold) to ``out``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from dance_core.atomic import atomic_path
+
+    from .beats import track_beats
+    from .spectral import log_mel, onset_strength
+
+    rate = max(fps, PLOT_FPS)
+    n = audio.n_frames(rate)
+    db = log_mel(audio, n, rate, 80, 22050, 2048)
+    onset = onset_strength(db)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        beats = track_beats(audio)
+    t_end = n / rate
+    fig, (ax_mel, ax_onset) = plt.subplots(2, 1, figsize=(12, 6), sharex=True,
+                                           gridspec_kw={"height_ratios": [3, 1]})
+    ax_mel.imshow(db.T, origin="lower", aspect="auto", extent=(0, t_end, 0, 80), cmap="magma",
+                  vmin=db.max() - 80, vmax=db.max())
+    ax_mel.set_ylabel("mel band")
+    ax_mel.set_title(f"{audio.path.name if audio.path else 'audio'}: {len(beats.times)} beats, "
+                     f"{len(beats.downbeats)} downbeats")
+    ax_onset.plot(np.arange(n) / rate, onset, lw=0.8, color="black")
+    ax_onset.set_ylabel("onset")
+    ax_onset.set_xlabel("time (s)")
+    for ax in (ax_mel, ax_onset):
+        ax.vlines(beats.times, *ax.get_ylim(), color="cyan", lw=0.6, alpha=0.8)
+        ax.vlines(beats.downbeats, *ax.get_ylim(), color="lime", lw=1.8)
+    fig.tight_layout()
+    with atomic_path(out, suffix=".png") as tmp:
+        fig.savefig(tmp, dpi=100)
+    plt.close(fig)
+
+

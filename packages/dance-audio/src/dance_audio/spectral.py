@@ -1,0 +1,108 @@
+"""``mel`` (log-mel bands) and ``onset`` (spectral flux of the log-mel): Transflower's 80 + 1.
+
+Frames are cut at the exact sample ``round(i * rate / fps)`` (zero padded at both ends, a periodic
+Hann window of ``n_fft`` samples centred there), so any fps works and frame i describes time i / fps.
+Both extractors share one cached spectrogram when a stack asks for both on the same audio.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import scipy.fft
+
+from dance_core.errors import DataError
+from dance_core.media import Audio, FeatureInputs
+
+from .numba_cache import import_librosa
+from .timing import resample
+
+CHUNK = 2048  # frames per FFT batch, bounding memory on long songs
+AMIN = 1e-10
+_cache: dict[str, Any] = {"key": None, "audio": None, "value": None}
+
+
+def _power_frames(y: np.ndarray, rate: int, n_frames: int, fps: float, n_fft: int) -> np.ndarray:
+    half = n_fft // 2
+    padded = np.pad(y, (half, half + n_fft))
+    centres = np.minimum(np.round(np.arange(n_frames) * rate / fps).astype(np.int64), len(y))
+    window = (0.5 - 0.5 * np.cos(2 * np.pi * np.arange(n_fft) / n_fft)).astype(np.float32)
+    offsets = np.arange(n_fft)
+    out = np.empty((n_frames, half + 1), dtype=np.float32)
+    for lo in range(0, n_frames, CHUNK):
+        frames = padded[centres[lo : lo + CHUNK, None] + offsets[None, :]] * window
+        out[lo : lo + CHUNK] = np.abs(scipy.fft.rfft(frames, axis=1)) ** 2
+    return out
+
+
+def log_mel(audio: Audio, n_frames: int, fps: float, n_mels: int, rate: int, n_fft: int,
+            fmin: float = 0.0, fmax: float | None = None) -> np.ndarray:
+    """``(n_frames, n_mels)`` mel power in dB (re 1.0), cached for the last audio seen."""
+    key = (id(audio), n_frames, fps, n_mels, rate, n_fft, fmin, fmax)
+    if _cache["key"] == key and _cache["audio"] is audio:
+        return _cache["value"]
+    librosa = import_librosa()
+    y = resample(audio.samples, audio.rate, rate)
+    basis = librosa.filters.mel(sr=rate, n_fft=n_fft, n_mels=n_mels, fmin=fmin, fmax=fmax).astype(np.float32)
+    power = _power_frames(y, rate, n_frames, fps, n_fft)
+    value = 10.0 * np.log10(np.maximum(power @ basis.T, AMIN))
+    _cache.update(key=key, audio=audio, value=value)
+    return value
+
+
+class MelFeatures:
+    """``n_mels`` log-mel bands in dB (re 1.0, or re the song's loudest bin like Transflower)."""
+
+    def __init__(self, n_mels: int, rate: int, n_fft: int, fmin: float, fmax: float | None, reference: str):
+        self.n_mels, self.rate, self.n_fft = n_mels, rate, n_fft
+        self.fmin, self.fmax, self.reference = fmin, fmax, reference
+
+    def dim(self) -> int:
+        """The number of mel bands."""
+        return self.n_mels
+
+    def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
+        """``(n_frames, n_mels)`` float32."""
+        if inputs.audio is None:
+            raise DataError("mel features need audio")
+        db = log_mel(inputs.audio, inputs.n_frames, fps, self.n_mels, self.rate, self.n_fft, self.fmin, self.fmax)
+        if self.reference == "max":
+            db = db - db.max()
+        return db.astype(np.float32)
+
+
+class OnsetFeatures:
+    """Spectral flux: the mean over mel bands of the positive dB increase since the previous frame."""
+
+    def __init__(self, n_mels: int, rate: int, n_fft: int):
+        self.n_mels, self.rate, self.n_fft = n_mels, rate, n_fft
+
+    def dim(self) -> int:
+        """One onset-strength value per frame."""
+        return 1
+
+    def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
+        """``(n_frames, 1)`` float32; frame 0 (nothing before it) is 0."""
+        if inputs.audio is None:
+            raise DataError("onset features need audio")
+        db = log_mel(inputs.audio, inputs.n_frames, fps, self.n_mels, self.rate, self.n_fft)
+        return onset_strength(db)[:, None]
+
+
+def onset_strength(db: np.ndarray) -> np.ndarray:
+    """Spectral flux of a ``(T, bands)`` dB spectrogram: ``mean(max(0, S[t] - S[t-1]))``."""
+    flux = np.zeros(len(db), dtype=np.float32)
+    if len(db) > 1:
+        flux[1:] = np.maximum(np.diff(db, axis=0), 0.0).mean(axis=1)
+    return flux
+
+
+def build_mel(config: Any, **_: Any) -> MelFeatures:
+    """Build the ``mel`` extractor."""
+    return MelFeatures(config.n_mels, config.sample_rate, config.n_fft, config.fmin, config.fmax, config.reference)
+
+
+def build_onset(config: Any, **_: Any) -> OnsetFeatures:
+    """Build the ``onset`` extractor."""
+    return OnsetFeatures(config.n_mels, config.sample_rate, config.n_fft)

@@ -1,0 +1,65 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dance_core.media import FeatureInputs
+from dance_audio.beats import BeatFeatures, track_beats
+from dance_audio.madmom_compat import madmom_available
+
+
+def f_measure(detections, annotations, window=0.07):
+    """Beat F-measure: one-to-one matches within +-window seconds."""
+    detections, annotations = list(np.sort(detections)), list(np.sort(annotations))
+    hits = 0
+    for a in annotations:
+        close = [d for d in detections if abs(d - a) <= window]
+        if close:
+            detections.remove(min(close, key=lambda d: abs(d - a)))
+            hits += 1
+    n_det = hits + len(detections)
+    if hits == 0:
+        return 0.0
+    precision, recall = hits / n_det, hits / len(annotations)
+    return 2 * precision * recall / (precision + recall)
+
+
+def test_f_measure_helper():
+    assert f_measure([1.0, 2.0], [1.05, 2.0]) == 1.0
+    assert f_measure([1.0, 1.5, 2.0], [1.0, 2.0]) == pytest.approx(0.8)
+    assert f_measure([1.1], [1.0]) == 0.0
+
+
+def test_beats_on_sample_match_hand_annotations(sample, annotated_beats):
+    if not madmom_available():
+        pytest.skip("the madmom extra is not installed")
+    times, positions = annotated_beats
+    beats = track_beats(sample)  # auto: madmom's DBN on the torch-ported RNN
+    assert f_measure(beats.times, times) >= 0.9
+    assert f_measure(beats.downbeats, times[positions == 1]) == 1.0
+
+
+def test_librosa_fallback_on_a_click_track(make_clicks, monkeypatch):
+    import dance_audio.madmom_compat as compat
+
+    monkeypatch.setattr(compat, "madmom_available", lambda: False)  # as without the madmom extra
+    clicks = np.arange(0.5, 9.6, 0.5)  # 120 BPM
+    beats = track_beats(make_clicks(clicks, 10.0), "auto")
+    assert f_measure(beats.times, clicks) >= 0.9
+    assert set(beats.positions.tolist()) <= {1, 2, 3, 4}
+
+
+def test_beat_features_mark_beats_and_phases(sample, annotated_beats):
+    if not madmom_available():
+        pytest.skip("the madmom extra is not installed")
+    fps = 30.0
+    inputs = FeatureInputs(n_frames=sample.n_frames(fps), audio=sample)
+    feats = BeatFeatures("auto", [3, 4], 55.0, 160.0).extract(inputs, fps)
+    assert feats.shape == (85, 6) and feats.dtype == np.float32
+    times, _ = annotated_beats
+    beat_frames = np.nonzero(feats[:, 0])[0]
+    assert np.all(np.abs(beat_frames / fps - times) <= 2 / fps)
+    assert np.nonzero(feats[:, 1])[0].tolist() == [beat_frames[0]]  # one downbeat: the first beat
+    np.testing.assert_allclose(feats[:, 2] ** 2 + feats[:, 3] ** 2, 1.0, atol=1e-5)
+    # on a beat frame the beat phase is close to 0 (sin ~ 0, cos ~ 1)
+    assert np.all(feats[beat_frames, 3] > 0.9)

@@ -1,0 +1,99 @@
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+
+from dance_core.errors import PluginError
+from dance_core.media import FeatureInputs
+
+from dance_audio.madmom_compat import madmom_available
+
+pytestmark = pytest.mark.skipif(not madmom_available(), reason="the madmom extra is not installed")
+
+
+@pytest.fixture(scope="module")
+def madmom():
+    from dance_audio.madmom_compat import import_madmom
+
+    return import_madmom()
+
+
+@pytest.fixture(scope="module")
+def sample_44k(sample):
+    assert sample.rate == 44100
+    return sample.samples
+
+
+@pytest.fixture(scope="module")
+def madmom_activations(madmom, sample_44k):
+    from madmom.audio.signal import Signal
+    from madmom.features.downbeats import RNNDownBeatProcessor
+
+    return RNNDownBeatProcessor()(Signal(sample_44k, sample_rate=44100))
+
+
+def test_compat_makes_madmom_import_on_numpy_2(madmom):
+    import collections
+
+    assert madmom.__version__ == "0.16.1"
+    assert collections.MutableSequence is collections.abc.MutableSequence
+    assert np.float is float and np.int is int
+
+
+def test_our_network_input_equals_madmoms_preprocessing(madmom, sample_44k):
+    from madmom.audio.signal import Signal
+    from madmom.features.downbeats import RNNDownBeatProcessor
+
+    from dance_audio.downbeat_features import downbeat_input
+
+    ours = downbeat_input(sample_44k)
+    theirs = RNNDownBeatProcessor().processors[0](Signal(sample_44k, sample_rate=44100))
+    assert ours.shape == theirs.shape == (281, 314)
+    np.testing.assert_allclose(ours, theirs, atol=1e-5)
+
+
+def test_torch_port_equals_madmom(sample_44k, madmom_activations):
+    from dance_audio.downbeat_torch import downbeat_activations
+
+    ours = downbeat_activations(sample_44k)
+    assert ours.shape == madmom_activations.shape == (281, 2)
+    assert np.abs(ours - madmom_activations).max() < 1e-4
+    assert madmom_activations.max() > 0.5  # real beats in real music, not a trivial match
+
+
+def test_madmom_backend_and_fps_resampling(sample, madmom_activations):
+    from dance_audio.downbeat import DownbeatFeatures, resample_activation
+
+    inputs = FeatureInputs(n_frames=sample.n_frames(100.0), audio=sample)
+    native = DownbeatFeatures("madmom").extract(inputs, 100.0)
+    np.testing.assert_allclose(native, madmom_activations, atol=1e-6)
+    inputs20 = FeatureInputs(n_frames=sample.n_frames(20.0), audio=sample)
+    at20 = DownbeatFeatures("torch").extract(inputs20, 20.0)
+    assert at20.shape == (57, 2)
+    np.testing.assert_allclose(at20, resample_activation(madmom_activations, 100.0, 57, 20.0), atol=1e-4)
+
+
+def test_dbn_downbeat_tracker_runs_despite_the_ragged_array(madmom, madmom_activations):
+    from madmom.features.downbeats import DBNDownBeatTrackingProcessor
+
+    beats = DBNDownBeatTrackingProcessor(beats_per_bar=[3, 4], fps=100)(madmom_activations)
+    assert beats.shape[1] == 2 and len(beats) >= 4
+
+
+def test_restricted_unpickler_refuses_foreign_globals(tmp_path):
+    from dance_audio.madmom_weights import _load
+
+    path = tmp_path / "evil.pkl"
+    path.write_bytes(pickle.dumps(print))
+    with pytest.raises(pickle.UnpicklingError, match="builtins.print is not allowed"):
+        _load(path)
+
+
+def test_missing_madmom_gives_an_install_hint(monkeypatch):
+    import dance_audio.madmom_compat as compat
+
+    monkeypatch.setattr(compat, "madmom_available", lambda: False)
+    with pytest.raises(PluginError, match="pip install"):
+        compat.import_madmom()
