@@ -18,7 +18,7 @@ def clicks(times, seconds: float, rate: int = 22050) -> Audio:
     rng = np.random.default_rng(0)
     y = 1e-3 * rng.standard_normal(int(round(seconds * rate))).astype(np.float32)
     n = int(0.03 * rate)
-    burst = (np.sin(2 * np.pi * 2000 * np.arange(n) / rate) * np.exp(-np.arange(n) / (0.006 * rate)))
+    burst = np.sin(2 * np.pi * 2000 * np.arange(n) / rate) * np.exp(-np.arange(n) / (0.006 * rate))
     for t in times:
         i = int(round(t * rate))
         y[i : i + n] += 0.8 * burst[: len(y) - i]
@@ -53,6 +53,9 @@ def sample(audio_dir, registry) -> Audio:
 
 @pytest.fixture(scope="session")
 def annotated_beats(audio_dir) -> tuple[np.ndarray, np.ndarray]:
-    rows = [line.split() for line in (audio_dir / "sample.beats").read_text().splitlines()
-            if line.strip() and not line.startswith("#")]
+    rows = [
+        line.split()
+        for line in (audio_dir / "sample.beats").read_text().splitlines()
+        if line.strip() and not line.startswith("#")
+    ]
     return np.array([float(r[0]) for r in rows]), np.array([int(r[1]) for r in rows])

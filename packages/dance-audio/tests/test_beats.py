@@ -3,9 +3,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dance_core.media import FeatureInputs
 from dance_audio.beats import BeatFeatures, track_beats
 from dance_audio.madmom_compat import madmom_available
+from dance_core.media import FeatureInputs
 
 
 def f_measure(detections, annotations, window=0.07):

@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from dance_core.media import FeatureInputs, frame_count
 from dance_audio.librosa438 import Librosa438
 from dance_audio.spectral import MelFeatures, OnsetFeatures
+from dance_core.media import FeatureInputs, frame_count
 
 CLICKS = [0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5]
 SECONDS = 4.02

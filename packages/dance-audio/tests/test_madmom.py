@@ -5,10 +5,9 @@ import pickle
 import numpy as np
 import pytest
 
+from dance_audio.madmom_compat import madmom_available
 from dance_core.errors import PluginError
 from dance_core.media import FeatureInputs
-
-from dance_audio.madmom_compat import madmom_available
 
 pytestmark = pytest.mark.skipif(not madmom_available(), reason="the madmom extra is not installed")
 

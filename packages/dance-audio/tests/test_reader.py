@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import soundfile as sf
 
+from dance_audio.reader import SoundFileReader
 from dance_core.data.features import audio_reader_for, load_audio
 from dance_core.errors import DataError
-from dance_audio.reader import SoundFileReader
 
 OGGS = ["vibe_ace.ogg", "hungarian_dance_5.ogg", "sugar_plum_fairy.ogg", "lets_go_fishin.ogg"]
 

@@ -38,8 +38,9 @@ def track_madmom(audio: Audio, beats_per_bar: list[int], min_bpm: float, max_bpm
     from madmom.features.downbeats import DBNDownBeatTrackingProcessor
 
     act = activations(audio, "torch")
-    dbn = DBNDownBeatTrackingProcessor(beats_per_bar=list(beats_per_bar), min_bpm=min_bpm, max_bpm=max_bpm,
-                                       fps=NATIVE_FPS)
+    dbn = DBNDownBeatTrackingProcessor(
+        beats_per_bar=list(beats_per_bar), min_bpm=min_bpm, max_bpm=max_bpm, fps=NATIVE_FPS
+    )
     result = np.asarray(dbn(act), dtype=np.float64).reshape(-1, 2)
     return Beats(result[:, 0], result[:, 1].astype(np.int64))
 
@@ -52,8 +53,9 @@ def track_librosa(audio: Audio, beats_per_bar: list[int], min_bpm: float, max_bp
     y = resample(audio.samples, audio.rate, LIBROSA_RATE)
     onset = librosa.onset.onset_strength(y=y, sr=LIBROSA_RATE, hop_length=LIBROSA_HOP)
     tempo_guess = float(np.sqrt(min_bpm * max_bpm))
-    _, frames = librosa.beat.beat_track(onset_envelope=onset, sr=LIBROSA_RATE, hop_length=LIBROSA_HOP,
-                                        start_bpm=tempo_guess)
+    _, frames = librosa.beat.beat_track(
+        onset_envelope=onset, sr=LIBROSA_RATE, hop_length=LIBROSA_HOP, start_bpm=tempo_guess
+    )
     frames = np.asarray(frames, dtype=np.int64)
     times = frames * LIBROSA_HOP / LIBROSA_RATE
     bar = max(beats_per_bar)
@@ -63,8 +65,9 @@ def track_librosa(audio: Audio, beats_per_bar: list[int], min_bpm: float, max_bp
     return Beats(times, positions.astype(np.int64))
 
 
-def track_beats(audio: Audio, tracker: str = "auto", beats_per_bar=(3, 4), min_bpm: float = 55.0,
-                max_bpm: float = 160.0) -> Beats:
+def track_beats(
+    audio: Audio, tracker: str = "auto", beats_per_bar=(3, 4), min_bpm: float = 55.0, max_bpm: float = 160.0
+) -> Beats:
     """Beats of a song: madmom when installed (``auto``), else librosa."""
     from .madmom_compat import madmom_available
 
@@ -92,8 +95,14 @@ class BeatFeatures:
         n = inputs.n_frames
         beat_phase = 2 * np.pi * event_phase(beats.times, n, fps)
         bar_phase = 2 * np.pi * event_phase(beats.downbeats, n, fps)
-        cols = [events_to_onehot(beats.times, n, fps), events_to_onehot(beats.downbeats, n, fps),
-                np.sin(beat_phase), np.cos(beat_phase), np.sin(bar_phase), np.cos(bar_phase)]
+        cols = [
+            events_to_onehot(beats.times, n, fps),
+            events_to_onehot(beats.downbeats, n, fps),
+            np.sin(beat_phase),
+            np.cos(beat_phase),
+            np.sin(bar_phase),
+            np.cos(bar_phase),
+        ]
         return np.stack(cols, axis=1).astype(np.float32)
 
 

@@ -9,7 +9,7 @@ earlier; the three (spectrogram, difference) pairs are stacked side by side.
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import scipy.fft
@@ -38,7 +38,7 @@ def nearest_bins(freqs: np.ndarray, bin_freqs: np.ndarray) -> np.ndarray:
     return np.unique(idx - lower_closer)
 
 
-@lru_cache(maxsize=None)
+@cache
 def triangular_filterbank(frame_size: int, bands_per_octave: int) -> np.ndarray:
     """``(frame_size // 2, bands)`` triangular filters, each summing to 1."""
     n_bins = frame_size // 2

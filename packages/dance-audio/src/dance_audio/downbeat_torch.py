@@ -72,8 +72,9 @@ def _peephole_lstm(pre: torch.Tensor, w_rec: torch.Tensor, peep: torch.Tensor) -
     for t in range(steps):
         g = torch.baddbmm(pre[:, t : t + 1], h, w_rec).squeeze(1)
         gi, gf, gc, go = g.chunk(4, dim=1)
-        c = torch.addcmul(c * torch.sigmoid(torch.addcmul(gf, c, p_f)), torch.tanh(gc),
-                          torch.sigmoid(torch.addcmul(gi, c, p_i)))
+        c = torch.addcmul(
+            c * torch.sigmoid(torch.addcmul(gf, c, p_f)), torch.tanh(gc), torch.sigmoid(torch.addcmul(gi, c, p_i))
+        )
         h_t = torch.tanh(c) * torch.sigmoid(torch.addcmul(go, c, p_o))
         out[:, t] = h_t
         h = h_t.unsqueeze(1)

@@ -100,8 +100,12 @@ def _gate_arrays(gate: _Record, hidden: int) -> tuple[np.ndarray, np.ndarray, np
     s = gate.state
     peep = s.get("peephole_weights")
     peep = np.zeros(hidden, np.float32) if peep is None else np.asarray(peep, np.float32).reshape(-1)
-    return (np.asarray(s["weights"], np.float32), np.asarray(s["recurrent_weights"], np.float32),
-            np.asarray(s["bias"], np.float32).reshape(-1), peep)
+    return (
+        np.asarray(s["weights"], np.float32),
+        np.asarray(s["recurrent_weights"], np.float32),
+        np.asarray(s["bias"], np.float32).reshape(-1),
+        peep,
+    )
 
 
 def _lstm(layer: _Record) -> LSTMWeights:
@@ -139,10 +143,15 @@ def load_downbeat_ensemble() -> list[NetworkWeights]:
             raise PluginError(f"{path}: madmom model file missing; reinstall madmom")
         net = _load(path)
         layers = net.state["layers"]
-        blstm = [(_lstm(l.state["fwd_layer"]), _lstm(l.state["bwd_layer"])) for l in layers[:-1]]
+        blstm = [(_lstm(x.state["fwd_layer"]), _lstm(x.state["bwd_layer"])) for x in layers[:-1]]
         out = layers[-1]
         if out.kind != "FeedForwardLayer" or out.state["activation_fn"].name != "softmax":
             raise PluginError(f"{path}: unexpected output layer {out.kind}")
-        nets.append(NetworkWeights(blstm, np.asarray(out.state["weights"], np.float32),
-                                   np.asarray(out.state["bias"], np.float32).reshape(-1)))
+        nets.append(
+            NetworkWeights(
+                blstm,
+                np.asarray(out.state["weights"], np.float32),
+                np.asarray(out.state["bias"], np.float32).reshape(-1),
+            )
+        )
     return nets

@@ -32,13 +32,14 @@ def plot_song(audio: Audio, fps: float, out: Path) -> None:
         warnings.simplefilter("ignore")
         beats = track_beats(audio)
     t_end = n / rate
-    fig, (ax_mel, ax_onset) = plt.subplots(2, 1, figsize=(12, 6), sharex=True,
-                                           gridspec_kw={"height_ratios": [3, 1]})
-    ax_mel.imshow(db.T, origin="lower", aspect="auto", extent=(0, t_end, 0, 80), cmap="magma",
-                  vmin=db.max() - 80, vmax=db.max())
+    fig, (ax_mel, ax_onset) = plt.subplots(2, 1, figsize=(12, 6), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
+    ax_mel.imshow(
+        db.T, origin="lower", aspect="auto", extent=(0, t_end, 0, 80), cmap="magma", vmin=db.max() - 80, vmax=db.max()
+    )
     ax_mel.set_ylabel("mel band")
-    ax_mel.set_title(f"{audio.path.name if audio.path else 'audio'}: {len(beats.times)} beats, "
-                     f"{len(beats.downbeats)} downbeats")
+    ax_mel.set_title(
+        f"{audio.path.name if audio.path else 'audio'}: {len(beats.times)} beats, {len(beats.downbeats)} downbeats"
+    )
     ax_onset.plot(np.arange(n) / rate, onset, lw=0.8, color="black")
     ax_onset.set_ylabel("onset")
     ax_onset.set_xlabel("time (s)")
@@ -49,5 +50,3 @@ def plot_song(audio: Audio, fps: float, out: Path) -> None:
     with atomic_path(out, suffix=".png") as tmp:
         fig.savefig(tmp, dpi=100)
     plt.close(fig)
-
-

@@ -14,22 +14,57 @@ def register_audio_readers(register):
     """soundfile (libsndfile) for wav, flac, ogg and mp3, preferred over core's WAV reader."""
     from .reader import SUFFIXES
 
-    register("soundfile", c.SoundFileReaderConfig, f"{_M}.reader:build",
-             "wav, flac, ogg, mp3 via libsndfile (audioread fallback), mixed to mono",
-             suffixes=SUFFIXES, priority=10)
+    register(
+        "soundfile",
+        c.SoundFileReaderConfig,
+        f"{_M}.reader:build",
+        "wav, flac, ogg, mp3 via libsndfile (audioread fallback), mixed to mono",
+        suffixes=SUFFIXES,
+        priority=10,
+    )
 
 
 @hookimpl
 def register_feature_extractors(register):
     """Music features (librosa, madmom) and text features."""
-    register("librosa-438", c.Librosa438Config, f"{_M}.librosa438:build",
-             "DanceRevolution/Bailando/TM2D: MFCC, delta, chroma, onset, beat, tempogram (438)")
+    register(
+        "librosa-438",
+        c.Librosa438Config,
+        f"{_M}.librosa438:build",
+        "DanceRevolution/Bailando/TM2D: MFCC, delta, chroma, onset, beat, tempogram (438)",
+    )
     register("mel", c.MelConfig, f"{_M}.spectral:build_mel", "log-mel bands in dB (80)")
     register("onset", c.OnsetConfig, f"{_M}.spectral:build_onset", "spectral-flux onset strength (1)")
-    register("madmom-downbeat", c.DownbeatConfig, f"{_M}.downbeat:build",
-             "madmom RNNDownBeatProcessor beat/downbeat activations, torch port (2)")
-    register("beats", c.BeatsConfig, f"{_M}.beats:build",
-             "beat and downbeat one-hots and phases (madmom DBN, librosa fallback) (6)")
+    register(
+        "madmom-downbeat",
+        c.DownbeatConfig,
+        f"{_M}.downbeat:build",
+        "madmom RNNDownBeatProcessor beat/downbeat activations, torch port (2)",
+    )
+    register(
+        "beats",
+        c.BeatsConfig,
+        f"{_M}.beats:build",
+        "beat and downbeat one-hots and phases (madmom DBN, librosa fallback) (6)",
+    )
+    register(
+        "word-tokens",
+        c.WordEmbeddingConfig,
+        f"{_M}.text:build_word_tokens",
+        "token ids of each frame's instruction, for a learned word embedding (TM2D)",
+    )
+    register(
+        "glove",
+        c.GloveConfig,
+        f"{_M}.text:build_glove",
+        "mean GloVe vector of each frame's instruction, from a user-supplied file (+1 flag)",
+    )
+    register(
+        "sentence",
+        c.SentenceEmbeddingConfig,
+        f"{_M}.text:build_sentence",
+        "all-MiniLM-L6-v2 sentence embedding, offline (dance-audio[text]) (384+1)",
+    )
 
 
 @hookimpl
@@ -37,8 +72,14 @@ def register_commands(subparsers):
     """``dance features``: extract features of one song to an .npz (and a plot to check by eye)."""
     p = subparsers.add_parser("features", help="extract music features of a song to an .npz file")
     p.add_argument("song", help="audio file (wav, flac, ogg, mp3)")
-    p.add_argument("-x", "--extractor", action="append", dest="extractors", metavar="NAME",
-                   help="feature extractor to run (repeatable; default: librosa-438)")
+    p.add_argument(
+        "-x",
+        "--extractor",
+        action="append",
+        dest="extractors",
+        metavar="NAME",
+        help="feature extractor to run (repeatable; default: librosa-438)",
+    )
     p.add_argument("-o", "--out", required=True, help="output .npz (one array per extractor, plus fps)")
     p.add_argument("--fps", type=float, default=30.0, help="frames per second (default 30)")
     p.add_argument("--plot", help="also write a PNG: mel spectrogram, onset envelope, beats and downbeats")

@@ -24,15 +24,15 @@ def _read_soundfile(path: Path) -> tuple[np.ndarray, int]:
 
 
 def _read_audioread(path: Path) -> tuple[np.ndarray, int]:
+    chunks = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)  # audioread imports aifc, audioop, sunau
         import audioread
 
-    chunks = []
-    with audioread.audio_open(str(path)) as f:
-        rate, channels = int(f.samplerate), int(f.channels)
-        for buf in f:
-            chunks.append(np.frombuffer(buf, "<i2"))
+        with audioread.audio_open(str(path)) as f:
+            rate, channels = int(f.samplerate), int(f.channels)
+            for buf in f:
+                chunks.append(np.frombuffer(buf, "<i2"))
     pcm = np.concatenate(chunks) if chunks else np.zeros(0, "<i2")
     pcm = pcm[: len(pcm) // channels * channels].reshape(-1, channels)
     return pcm.astype(np.float32).mean(axis=1) / 32768.0, rate

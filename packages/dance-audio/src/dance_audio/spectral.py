@@ -36,8 +36,16 @@ def _power_frames(y: np.ndarray, rate: int, n_frames: int, fps: float, n_fft: in
     return out
 
 
-def log_mel(audio: Audio, n_frames: int, fps: float, n_mels: int, rate: int, n_fft: int,
-            fmin: float = 0.0, fmax: float | None = None) -> np.ndarray:
+def log_mel(
+    audio: Audio,
+    n_frames: int,
+    fps: float,
+    n_mels: int,
+    rate: int,
+    n_fft: int,
+    fmin: float = 0.0,
+    fmax: float | None = None,
+) -> np.ndarray:
     """``(n_frames, n_mels)`` mel power in dB (re 1.0), cached for the last audio seen."""
     key = (id(audio), n_frames, fps, n_mels, rate, n_fft, fmin, fmax)
     if _cache["key"] == key and _cache["audio"] is audio:

