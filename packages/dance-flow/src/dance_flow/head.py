@@ -42,7 +42,9 @@ class FlowHead(nn.Module):
         x, logdet = self.flow.reverse(z, latent)
         return x, self.base.log_prob(z) + logdet
 
-    def loss(self, latent: torch.Tensor, target: torch.Tensor, history: torch.Tensor, ctx: TrainContext) -> dict[str, torch.Tensor]:
+    def loss(
+        self, latent: torch.Tensor, target: torch.Tensor, history: torch.Tensor, ctx: TrainContext
+    ) -> dict[str, torch.Tensor]:
         """Negative log-likelihood in bits per dimension (and nats per frame, for logs)."""
         with torch.autocast(latent.device.type, enabled=False):
             log_p = self.log_prob(target.float(), latent.float())
@@ -65,8 +67,10 @@ class FlowHead(nn.Module):
         return motion
 
 
-def build(config, *, motion_dim: int, latent_dim: int, latent_tokens: int | None = None, **_: Any) -> FlowHead:
-    """Build the ``flow`` head."""
-    if latent_tokens is None:
+def build(
+    config, *, motion_dim: int, latent_dim: int, latent_tokens: int | None = None, window=None, **_: Any
+) -> FlowHead:
+    """Build the ``flow`` head (a song-level encoder gives it one latent token per frame)."""
+    if latent_tokens is None and not (window is not None and window.song_level):
         raise ValueError("the flow head needs a windowed encoder that gives latent tokens")
     return FlowHead(config, motion_dim, latent_dim)
