@@ -63,7 +63,9 @@ def test_each_layer_inverts_and_matches_brute_force_log_det(index):
     assert torch.allclose(logdet, logdet_rev, atol=1e-10)
     for b in range(2):
         hb = h[b : b + 1]
-        jac = torch.autograd.functional.jacobian(lambda v, hb=hb: layer(v.view(1, N, C), hb)[0].flatten(), x[b].flatten())
+        jac = torch.autograd.functional.jacobian(
+            lambda v, hb=hb: layer(v.view(1, N, C), hb)[0].flatten(), x[b].flatten()
+        )
         assert logdet[b].item() == pytest.approx(torch.linalg.slogdet(jac)[1].item(), abs=1e-8)
 
 

@@ -26,8 +26,9 @@ CTX = TrainContext(step=0, epoch=0)
 
 def _head(base: str = "gaussian", norm: str = "actnorm") -> FlowHead:
     torch.manual_seed(0)
-    cfg = FlowHeadConfig(frames=N, steps=4, norm=norm, base=base, df=6.0,
-                         coupling=CouplingConfig(dim=16, layers=1, heads=2))
+    cfg = FlowHeadConfig(
+        frames=N, steps=4, norm=norm, base=base, df=6.0, coupling=CouplingConfig(dim=16, layers=1, heads=2)
+    )
     return FlowHead(cfg, D, H)
 
 
@@ -139,8 +140,17 @@ def test_relative_bias_is_translation_invariant_and_positions_matter():
 def _encoder(latent: str) -> TransflowerEncoder:
     torch.manual_seed(0)
     layer = TransformerConfig(layers=1, heads=2, dropout=0.1)
-    cfg = TransflowerEncoderConfig(motion_past=6, cond_past=5, cond_future=2, dim=8, motion=layer,
-                                   music=layer, crossmodal=layer, tokens=N, latent=latent)
+    cfg = TransflowerEncoderConfig(
+        motion_past=6,
+        cond_past=5,
+        cond_future=2,
+        dim=8,
+        motion=layer,
+        music=layer,
+        crossmodal=layer,
+        tokens=N,
+        latent=latent,
+    )
     return TransflowerEncoder(cfg, D, {"music": 3, "text": 2})
 
 

@@ -13,25 +13,45 @@ from dance_core.recipe import load_recipe
 from dance_core.train import train
 
 # shrink the paper-size recipes to a few seconds of CPU while keeping their structure
-TINY_DATA = ["data.dataset.songs=3", "data.dataset.seconds=8", "training.batch_size=8",
-             "training.val_every=1000", "training.log_every=1", "features.music=[{plugin: energy}]"]
+TINY_DATA = [
+    "data.dataset.songs=3",
+    "data.dataset.seconds=8",
+    "training.batch_size=8",
+    "training.val_every=1000",
+    "training.log_every=1",
+    "features.music=[{plugin: energy}]",
+]
 TINY = {
     "transflower": [
-        "model.encoder.motion_past=12", "model.encoder.cond_past=12", "model.encoder.cond_future=4",
-        "model.encoder.dim=16", "model.encoder.motion={layers: 1, heads: 2}",
-        "model.encoder.music={layers: 1, heads: 2}", "model.encoder.crossmodal={layers: 2, heads: 2}",
-        "model.head.steps=2", "model.head.coupling={dim: 8, layers: 1, heads: 2}",
+        "model.encoder.motion_past=12",
+        "model.encoder.cond_past=12",
+        "model.encoder.cond_future=4",
+        "model.encoder.dim=16",
+        "model.encoder.motion={layers: 1, heads: 2}",
+        "model.encoder.music={layers: 1, heads: 2}",
+        "model.encoder.crossmodal={layers: 2, heads: 2}",
+        "model.head.steps=2",
+        "model.head.coupling={dim: 8, layers: 1, heads: 2}",
     ],
     "aichoreographer": [
-        "model.encoder.motion_past=12", "model.encoder.cond_past=12", "model.encoder.cond_future=4",
-        "model.encoder.dim=16", "model.encoder.motion={layers: 1, heads: 2}",
-        "model.encoder.music={layers: 1, heads: 2}", "model.encoder.crossmodal={layers: 1, heads: 2}",
+        "model.encoder.motion_past=12",
+        "model.encoder.cond_past=12",
+        "model.encoder.cond_future=4",
+        "model.encoder.dim=16",
+        "model.encoder.motion={layers: 1, heads: 2}",
+        "model.encoder.music={layers: 1, heads: 2}",
+        "model.encoder.crossmodal={layers: 1, heads: 2}",
         "model.head.hidden=16",
     ],
     "moglow": [
-        "model.encoder.motion_frames=4", "model.encoder.music_past=4", "model.encoder.music_future=2",
-        "model.encoder.steps=4", "model.encoder.hidden=16", "model.encoder.dim=16",
-        "model.head.steps=2", "model.head.coupling={dim: 8, layers: 1, heads: 2}",
+        "model.encoder.motion_frames=4",
+        "model.encoder.music_past=4",
+        "model.encoder.music_future=2",
+        "model.encoder.steps=4",
+        "model.encoder.hidden=16",
+        "model.encoder.dim=16",
+        "model.head.steps=2",
+        "model.head.coupling={dim: 8, layers: 1, heads: 2}",
     ],
     "transflower-small": ["model.encoder.motion_past=12", "model.encoder.cond_past=12", "model.encoder.cond_future=4"],
 }
@@ -54,16 +74,24 @@ def test_recipe_trains_a_few_steps_and_composes(name, tmp_path, demo_song):
     recipe = load_recipe(name, [*TINY_DATA, *TINY[name], "training.steps=3"])
     result = train(recipe, out=str(tmp_path / "run"), quiet=True)
     assert np.isfinite(result.first_loss) and np.isfinite(result.last_loss)
-    written = compose(recipe, music=[str(demo_song)], checkpoint=str(result.checkpoint),
-                      out_dir=str(tmp_path / "out"), quiet=True)
+    written = compose(
+        recipe, music=[str(demo_song)], checkpoint=str(result.checkpoint), out_dir=str(tmp_path / "out"), quiet=True
+    )
     motion = np.load(written[0])
     values = motion[[k for k in motion.files if motion[k].ndim == 2][0]]
     assert values.shape[0] == 60 and np.all(np.isfinite(values))  # the whole 3 s song at 20 fps
 
 
 def test_transflower_small_learns_the_synthetic_dance(tmp_path):
-    sets = [*TINY_DATA, *TINY["transflower-small"], "data.dataset.songs=6", "training.steps=60",
-            "training.batch_size=16", "training.optimizer.lr=2e-3", "training.val_every=60"]
+    sets = [
+        *TINY_DATA,
+        *TINY["transflower-small"],
+        "data.dataset.songs=6",
+        "training.steps=60",
+        "training.batch_size=16",
+        "training.optimizer.lr=2e-3",
+        "training.val_every=60",
+    ]
     recipe = load_recipe("transflower-small", sets)
     result = train(recipe, out=str(tmp_path / "run"), quiet=True)
     log = [json.loads(line) for line in (tmp_path / "run" / "log.jsonl").read_text().splitlines()]
@@ -96,10 +124,13 @@ def demo_song(tmp_path):
 def test_temperature_zero_composes_the_same_dance_twice(tmp_path, demo_song):
     recipe = load_recipe("transflower-small", [*TINY_DATA, *TINY["transflower-small"], "training.steps=2"])
     ckpt = train(recipe, out=str(tmp_path / "run"), quiet=True).checkpoint
-    cold = load_recipe("transflower-small", [*TINY_DATA, *TINY["transflower-small"], "training.steps=2",
-                                             "compose.temperature=0", "compose.samples=2"])
-    hot = load_recipe("transflower-small", [*TINY_DATA, *TINY["transflower-small"], "training.steps=2",
-                                            "compose.samples=2", "seed=3"])
+    cold = load_recipe(
+        "transflower-small",
+        [*TINY_DATA, *TINY["transflower-small"], "training.steps=2", "compose.temperature=0", "compose.samples=2"],
+    )
+    hot = load_recipe(
+        "transflower-small", [*TINY_DATA, *TINY["transflower-small"], "training.steps=2", "compose.samples=2", "seed=3"]
+    )
 
     def run(recipe, out):
         files = compose(recipe, music=[str(demo_song)], checkpoint=str(ckpt), out_dir=str(tmp_path / out), quiet=True)

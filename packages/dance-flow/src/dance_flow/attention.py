@@ -45,8 +45,12 @@ class RelativeBias(nn.Module):
     def index(self, positions: torch.Tensor) -> torch.Tensor:
         """Bucket indices ``(L, L)`` for integer positions ``(L,)`` (cached for repeated calls)."""
         cached = self._cache
-        if cached is not None and cached[0].shape == positions.shape and cached[0].device == positions.device \
-                and torch.equal(cached[0], positions):
+        if (
+            cached is not None
+            and cached[0].shape == positions.shape
+            and cached[0].device == positions.device
+            and torch.equal(cached[0], positions)
+        ):
             return cached[1]
         offset = positions[None, :] - positions[:, None]
         idx = relative_buckets(offset, self.buckets, self.max_distance)

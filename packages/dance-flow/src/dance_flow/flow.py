@@ -295,4 +295,3 @@ def _chi_square(df: float, shape, generator, device, dtype) -> torch.Tensor:
 def base_distribution(config) -> nn.Module:
     """The configured base distribution."""
     return StudentTBase(config.df) if config.base == "student-t" else GaussianBase()
-

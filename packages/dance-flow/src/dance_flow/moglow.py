@@ -31,8 +31,9 @@ class MoGlowContext(nn.Module):
         self.motion_frames = config.motion_frames
         self.music_frames = config.music_past + config.music_future
         width = config.motion_frames * motion_dim + self.music_frames * sum(cond_dims.values())
-        self.lstm = nn.LSTM(width, config.hidden, config.layers, batch_first=True,
-                            dropout=config.dropout if config.layers > 1 else 0.0)
+        self.lstm = nn.LSTM(
+            width, config.hidden, config.layers, batch_first=True, dropout=config.dropout if config.layers > 1 else 0.0
+        )
         self.out = nn.Linear(config.hidden, config.dim)
 
     def forward(self, motion: torch.Tensor | None, cond: Mapping[str, torch.Tensor]) -> torch.Tensor:

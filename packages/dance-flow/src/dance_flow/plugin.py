@@ -13,17 +13,29 @@ RECIPES = Path(__file__).resolve().parent / "recipes"
 @hookimpl
 def register_encoders(register):
     """Transflower's multimodal transformer encoder and MoGlow's concatenated-context LSTM."""
-    register("transflower", c.TransflowerEncoderConfig, "dance_flow.encoder:build",
-             "motion + music transformers and a cross-modal transformer (relative positions)")
-    register("moglow-context", c.MoGlowContextConfig, "dance_flow.moglow:build",
-             "LSTM over concatenated recent motion and music frames (MoGlow)")
+    register(
+        "transflower",
+        c.TransflowerEncoderConfig,
+        "dance_flow.encoder:build",
+        "motion + music transformers and a cross-modal transformer (relative positions)",
+    )
+    register(
+        "moglow-context",
+        c.MoGlowContextConfig,
+        "dance_flow.moglow:build",
+        "LSTM over concatenated recent motion and music frames (MoGlow)",
+    )
 
 
 @hookimpl
 def register_heads(register):
     """The normalizing-flow output head."""
-    register("flow", c.FlowHeadConfig, "dance_flow.head:build",
-             "Glow-style flow over N frames with transformer couplings; exact NLL, temperature")
+    register(
+        "flow",
+        c.FlowHeadConfig,
+        "dance_flow.head:build",
+        "Glow-style flow over N frames with transformer couplings; exact NLL, temperature",
+    )
 
 
 @hookimpl
