@@ -10,6 +10,7 @@ import torch
 
 from dance_core.checkpoint import Checkpoint, check_matches, load_checkpoint, load_weights
 from dance_core.data.features import FeatureStack, load_audio
+from dance_core.data.prepare import decode_motion, encode_seed
 from dance_core.errors import DanceError, DataError, RecipeError
 from dance_core.media import frame_count
 from dance_core.model import ComposedModel, build_model
@@ -26,6 +27,7 @@ class Song:
     name: str
     streams: dict[str, np.ndarray]
     n_frames: int
+    path: str = ""
 
 
 def motion_format(name: str, registry: Registry):
@@ -48,7 +50,7 @@ def seed_motion(spec: str | None, ckpt: Checkpoint, frames: int, registry: Regis
     dim = ckpt.motion["dim"]
     if spec in (None, "rest"):
         return np.zeros((frames, dim), np.float32)
-    motion = read_motion(spec, registry)
+    motion = encode_seed(ckpt.motion, read_motion(spec, registry), registry)
     if motion.values.shape[1] != dim:
         raise DataError(f"{spec}: seed motion has {motion.values.shape[1]} channels, the model {dim}")
     if abs(motion.fps - ckpt.motion["fps"]) > 1e-6:
@@ -73,7 +75,7 @@ def load_song(path: str, stack: FeatureStack, ckpt: Checkpoint, seconds: float |
         if n > len(values):
             values = np.concatenate([values, np.repeat(values[-1:], n - len(values), axis=0)])
         streams[name] = values[:n]
-    return Song(Path(path).stem, streams, n)
+    return Song(Path(path).stem, streams, n, str(path))
 
 
 def load_model(recipe: Recipe, checkpoint: str | Path, device: torch.device) -> tuple[ComposedModel, Checkpoint, FeatureStack]:
@@ -137,7 +139,8 @@ def compose(
     for i, song in enumerate(songs):
         for k in range(c.samples):
             values = ckpt.stats.motion.invert(motion[i * c.samples + k, : song.n_frames])
-            data = MotionData(values, recipe.fps, ckpt.motion.get("channels"))
+            data = decode_motion(ckpt.motion, values, recipe.fps, registry)
+            data.meta["audio_path"] = song.path
             stem = song.name if c.samples == 1 else f"{song.name}-{k}"
             for entry, fmt in formats:
                 path = out / f"{stem}{entry.info.get('suffixes', ('.' + entry.name,))[0]}"

@@ -39,6 +39,11 @@ def register_motion_formats(register):
 
 
 @hookspec
+def register_motion_representations(register):
+    """Register motion representations: skeletal motion to model features ``(T, D)`` and back."""
+
+
+@hookspec
 def register_datasets(register):
     """Register datasets: sources of paired music and motion clips."""
 

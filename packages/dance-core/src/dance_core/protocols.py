@@ -137,12 +137,17 @@ class AudioReader(Protocol):
 
 @dataclass
 class MotionData:
-    """Motion as a frame array ``(T, D)`` at ``fps``, with optional per-channel names."""
+    """Motion as a frame array ``(T, D)`` at ``fps``, with optional per-channel names.
+
+    ``skeleton_motion`` is the skeletal motion (a ``dance_core.motion.Motion``) that the values
+    encode or were read from, when there is one: skeleton formats (BVH, SMPL) need it to write.
+    """
 
     values: np.ndarray
     fps: float
     channels: Sequence[str] | None = None
     meta: dict[str, Any] = field(default_factory=dict)
+    skeleton_motion: Any = None
 
 
 @runtime_checkable

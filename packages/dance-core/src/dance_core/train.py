@@ -23,7 +23,7 @@ from dance_core.checkpoint import (
     save_train_state,
 )
 from dance_core.data.features import FeatureStack
-from dance_core.data.prepare import dataset_sources, to_clip
+from dance_core.data.prepare import dataset_sources, motion_info, to_clip
 from dance_core.data.sampling import SegmentSampler, split_clips
 from dance_core.data.stats import NormStats
 from dance_core.errors import CheckpointError, TrainingError
@@ -100,8 +100,7 @@ class Trainer:
         train = [self.stats.apply(c) for c in train]
         val = [self.stats.apply(c) for c in val]
         motion_dim = train[0].motion.shape[1]
-        channels = sources[0].motion.channels
-        self.motion_info = {"dim": motion_dim, "fps": recipe.fps, "channels": list(channels) if channels else None}
+        self.motion_info = motion_info(recipe, sources, motion_dim)
         torch.manual_seed(recipe.seed)
         self.model = build_model(recipe, motion_dim, self.stack.dims()).to(self.device)
         length = self.model.segment_frames(recipe.data.segment_frames)

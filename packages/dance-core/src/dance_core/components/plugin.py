@@ -5,7 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from dance_core.components import configs as c
+from dance_core.data import dataset_configs as dc
 from dance_core.hookspecs import hookimpl
+from dance_core.motion import configs as mc
 
 _M = "dance_core.components"
 RECIPES = Path(__file__).resolve().parent.parent / "recipes"
@@ -51,6 +53,17 @@ def register_motion_formats(register):
     """Core's lossless NPZ motion format."""
     register("npz", c.NpzFormatConfig, f"{_M}.npz:build", "frame array, fps and channel names",
              suffixes=(".npz",))
+    register("bvh", mc.BvhFormatConfig, "dance_core.formats.bvh:build",
+             "BVH mocap: any channel order, End Sites, continuous Euler", suffixes=(".bvh",))
+
+
+@hookimpl
+def register_motion_representations(register):
+    """Core's motion representations (skeletal motion to model features and back)."""
+    register("rotations", mc.RotationRepresentationConfig, "dance_core.motion.representation:build_rotations",
+             "root (Transflower's ground deltas or absolute) + joint rotations (expmap, 6d, quat, matrix)")
+    register("positions", mc.PositionRepresentationConfig, "dance_core.motion.representation:build_positions",
+             "root ground deltas + joint positions relative to the root (3D or 2D keypoints)")
 
 
 @hookimpl
@@ -58,6 +71,8 @@ def register_datasets(register):
     """Core's synthetic beat-locked dataset."""
     register("synthetic-beats", c.SyntheticBeatsConfig, f"{_M}.synthetic:build",
              "click-track music with known beats and a beat-locked dancer")
+    register("synthetic-dance", dc.SyntheticDanceConfig, "dance_core.data.synthetic_dance:build",
+             "synthesized songs (drums, bass, chords) with a beat-locked SMPL dancer and move labels")
 
 
 @hookimpl
@@ -98,6 +113,8 @@ def register_recipes(register):
     """Core's bundled recipes."""
     register("core-synthetic", None, str(RECIPES / "core-synthetic.yaml"),
              "window-mlp + regression head on synthetic beats; trains on CPU in seconds")
+    register("core-dance", None, str(RECIPES / "core-dance.yaml"),
+             "window-mlp + regression head on the synthetic SMPL dancer; writes BVH")
 
 
 @hookimpl

@@ -2,32 +2,111 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
 from dance_core.data.features import FeatureStack, load_audio
 from dance_core.data.sources import Clip, ClipSource
 from dance_core.errors import DataError, RecipeError
+from dance_core.protocols import MotionData
 from dance_core.recipe.schema import Recipe
 from dance_core.registry import Registry
 
 
 def dataset_sources(recipe: Recipe) -> list[ClipSource]:
-    """The recipe's dataset, built and listed."""
+    """The recipe's dataset, built and listed; skeletal motion is resampled to the recipe's fps and
+    encoded with the recipe's ``motion:`` representation (mirrored copies added with ``data.mirror``)."""
     if recipe.data is None:
         raise RecipeError(f"{recipe._origin}: data: required for training")
     dataset = recipe.data.dataset.build(fps=recipe.fps, seed=recipe.seed, root=recipe._dir)
     sources = list(dataset.clips())
     if not sources:
         raise DataError(f"dataset {recipe.data.dataset.plugin!r} has no clips")
-    return sources
+    return encode_sources(recipe, sources)
+
+
+def encode_sources(recipe: Recipe, sources: list[ClipSource]) -> list[ClipSource]:
+    """Sources whose ``motion.values`` are the representation's features at the recipe's fps."""
+    skeletal = [s for s in sources if s.motion.skeleton_motion is not None]
+    plugin = recipe.data.dataset.plugin if recipe.data else "?"
+    if recipe.motion is None:
+        if skeletal:
+            raise RecipeError(f"{recipe._origin}: motion: dataset {plugin!r} yields skeletal motion; choose a "
+                              "representation, e.g. `motion: {plugin: rotations}`")
+        return sources
+    if len(skeletal) != len(sources):
+        bad = next(s for s in sources if s.motion.skeleton_motion is None)
+        raise DataError(f"{bad.name}: motion has no skeleton, but the recipe's motion representation "
+                        f"{recipe.motion.plugin!r} needs one")
+    rep = recipe.motion.build()
+    ref = sources[0].motion.skeleton_motion.skeleton
+    out = []
+    for s in sources:
+        motion = s.motion.skeleton_motion.conformed(ref, s.name)
+        versions = [(s.name, motion.resample(recipe.fps))]
+        if recipe.data is not None and recipe.data.mirror:
+            versions.append((f"{s.name}-mirrored", versions[0][1].mirrored()))
+        for name, m in versions:
+            data = MotionData(rep.encode(m), recipe.fps, rep.channels(ref), dict(s.motion.meta), m)
+            out.append(replace(s, name=name, motion=data))
+    return out
+
+
+def motion_info(recipe: Recipe, sources: list[ClipSource], dim: int) -> dict[str, Any]:
+    """What a checkpoint stores about its motion: width, fps, channels, representation and skeleton."""
+    channels = sources[0].motion.channels
+    info: dict[str, Any] = {"dim": dim, "fps": recipe.fps, "channels": list(channels) if channels else None}
+    if recipe.motion is not None:
+        info["representation"] = {"plugin": recipe.motion.plugin, **recipe.motion.options()}
+        info["skeleton"] = sources[0].motion.skeleton_motion.skeleton.to_dict()
+    return info
+
+
+def decode_motion(info: dict[str, Any], values: np.ndarray, fps: float, registry: Registry) -> MotionData:
+    """Generated features as ``MotionData``, with the skeletal motion decoded when the checkpoint has a
+    representation (so skeleton formats such as BVH can write it)."""
+    data = MotionData(values, fps, info.get("channels"))
+    if info.get("representation"):
+        rep, skeleton = stored_representation(info, registry)
+        data.skeleton_motion = rep.decode(values, skeleton, fps)
+    return data
+
+
+def stored_representation(info: dict[str, Any], registry: Registry) -> tuple[Any, Any]:
+    """The representation and skeleton recorded in a checkpoint's motion info."""
+    from dance_core.motion.skeleton import Skeleton
+
+    spec = info["representation"]
+    options = {k: v for k, v in spec.items() if k != "plugin"}
+    entry = registry.get("motion-representation", spec["plugin"])
+    rep = entry.build(entry.config.model_validate(options) if entry.config else None)
+    return rep, Skeleton.from_dict(info["skeleton"])
+
+
+def encode_seed(info: dict[str, Any], motion: MotionData, registry: Registry) -> MotionData:
+    """A seed motion read from a skeletal file, as the checkpoint's features at its fps."""
+    if motion.skeleton_motion is None or not info.get("representation"):
+        return motion
+    rep, skeleton = stored_representation(info, registry)
+    where = motion.meta.get("path", "seed motion")
+    skel_motion = motion.skeleton_motion.conformed(skeleton, where).resample(info["fps"])
+    return MotionData(rep.encode(skel_motion), info["fps"], rep.channels(skeleton), motion.meta, skel_motion)
 
 
 def to_clip(source: ClipSource, stack: FeatureStack, registry: Registry) -> Clip:
-    """Features for one source, cropped with its motion to a common frame count."""
+    """Features for one source, cropped with its motion to a common frame count; motion at another
+    frame rate is low-pass filtered and resampled to the recipe's."""
     motion = source.motion
+    values = motion.values
     if abs(motion.fps - stack.fps) > 1e-6:
-        raise DataError(f"{source.name}: motion is at {motion.fps:g} fps but the recipe's fps is {stack.fps:g}")
+        from dance_core.motion.resample import resample_array
+
+        values = resample_array(np.asarray(values, np.float64), motion.fps, stack.fps).astype(np.float32)
     audio = source.audio
     if audio is None and source.audio_path is not None:
         audio = load_audio(source.audio_path, registry)
-    n = len(motion.values) if audio is None else min(len(motion.values), audio.n_frames(stack.fps))
+    n = len(values) if audio is None else min(len(values), audio.n_frames(stack.fps))
     streams = stack.extract(n, audio, source.texts)
-    return Clip(source.name, motion.values[:n], streams)
+    return Clip(source.name, values[:n], streams)

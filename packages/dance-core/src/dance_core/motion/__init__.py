@@ -2,10 +2,24 @@
 
 NumPy throughout (rotations through ``scipy.spatial.transform``); :mod:`dance_core.motion.torch_ops`
 has the differentiable torch versions that models need. Quaternions are scalar-last ``(x, y, z, w)``
-as in SciPy; positions are Y-up.
+as in SciPy; positions are Y-up. This package module imports nothing heavy: ``Motion`` and
+``Skeleton`` load on first use, so plugin entry modules may import ``dance_core.motion.configs``.
 """
 
-from dance_core.motion.motion import Motion
-from dance_core.motion.skeleton import Skeleton
+from __future__ import annotations
+
+from typing import Any
 
 __all__ = ["Motion", "Skeleton"]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "Motion":
+        from dance_core.motion.motion import Motion
+
+        return Motion
+    if name == "Skeleton":
+        from dance_core.motion.skeleton import Skeleton
+
+        return Skeleton
+    raise AttributeError(name)

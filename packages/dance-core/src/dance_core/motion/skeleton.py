@@ -11,7 +11,15 @@ from dance_core.errors import DataError
 
 ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
 JOINT_CHANNELS = ("Zrotation", "Xrotation", "Yrotation")
-_SIDES = (("Left", "Right"), ("left", "right"), ("L_", "R_"), ("l_", "r_"), ("L", "R"))
+_SIDES = (("Left", "Right"), ("left", "right"), ("L_", "R_"), ("l_", "r_"))
+
+
+def _swapped(name: str) -> list[str]:
+    """Candidate mirror names: Left<->Right anywhere, or a leading single L/R (``LHipJoint``)."""
+    out = [name.replace(a, b, 1) for x, y in _SIDES for a, b in ((x, y), (y, x)) if a in name]
+    if name[:1] in ("L", "R") and name[1:2].isupper():
+        out.append(("R" if name[0] == "L" else "L") + name[1:])
+    return [c for c in out if c != name]
 
 
 @dataclass
@@ -36,7 +44,8 @@ class Skeleton:
         self.offsets = np.asarray(self.offsets, dtype=np.float64).reshape(-1, 3)
         n = len(self.names)
         if len(self.parents) != n or len(self.offsets) != n:
-            raise DataError(f"skeleton {self.name}: {n} names, {len(self.parents)} parents, {len(self.offsets)} offsets")
+            raise DataError(f"skeleton {self.name}: {n} names, {len(self.parents)} parents, "
+                            f"{len(self.offsets)} offsets")
         for j, p in enumerate(self.parents):
             if (j == 0) != (p < 0) or p >= j:
                 raise DataError(f"skeleton {self.name}: joint {self.names[j]!r} has parent {p}; need depth-first order")
@@ -77,23 +86,23 @@ class Skeleton:
 
     def mirror_pairs(self) -> list[int]:
         """For each joint, the index of its left/right counterpart (itself when unpaired)."""
-        out = list(range(len(self)))
-        for j, name in enumerate(self.names):
-            for left, right in _SIDES:
-                for a, b in ((left, right), (right, left)):
-                    if name.startswith(a) and name.replace(a, b, 1) in self.names:
-                        out[j] = self.names.index(name.replace(a, b, 1))
-                        break
-                    if a in name and len(a) > 2 and name.replace(a, b) in self.names:
-                        out[j] = self.names.index(name.replace(a, b))
-                        break
-                if out[j] != j:
-                    break
-        return out
+        lookup = {n: j for j, n in enumerate(self.names)}
+        return [next((lookup[c] for c in _swapped(name) if c in lookup), j) for j, name in enumerate(self.names)]
 
     def same_topology(self, other: Skeleton) -> bool:
         """True when joint names and parents agree (offsets may differ)."""
         return self.names == other.names and list(self.parents) == list(other.parents)
+
+    def parent_names(self) -> dict[str, str | None]:
+        """Each joint's parent by name (None for the root)."""
+        return {n: (self.names[p] if p >= 0 else None) for n, p in zip(self.names, self.parents, strict=True)}
+
+    def permutation_to(self, other: Skeleton) -> list[int] | None:
+        """Indices into this skeleton that give ``other``'s joint order, when both have the same tree
+        (names and parents by name); None otherwise."""
+        if sorted(self.names) != sorted(other.names) or self.parent_names() != other.parent_names():
+            return None
+        return [self.names.index(n) for n in other.names]
 
     def scaled(self, factor: float, units: str | None = None) -> Skeleton:
         """A copy with offsets (and end sites) multiplied by ``factor``."""

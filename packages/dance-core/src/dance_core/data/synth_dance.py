@@ -1,0 +1,193 @@
+"""A beat-locked dancer on the SMPL-24 skeleton: moves chosen per bar, with timed text labels.
+
+Every move is a pose function of the beat phase ``phi`` (beats since the bar's downbeat): joint
+rotations as exponential maps, periodic root offsets and root rates (travel, turning) that are
+integrated over time. A groove shared by all moves dips the hips on every beat, so the hip's
+height minima (its zero vertical velocity at the bottom) sit on the music's beats. Moves change at
+bar lines with half a beat of blending; which move comes when depends on the section and a seed,
+so one song admits many dances.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dance_core.media import TextSpan, frame_count
+from dance_core.motion.motion import Motion
+from dance_core.motion.rotations import expmap_to_quat, quat_mul, quat_rotate, yaw_quat
+from dance_core.motion.skeletons import SMPL_REST, smpl24
+
+BEATS_PER_BAR = 4
+MOVES = {
+    "bounce": "a person bounces to the beat",
+    "step-touch": "a person steps from side to side",
+    "sway": "a person sways their hips and arms",
+    "arm-wave": "a person waves their arms overhead",
+    "clap": "a person claps on the beat",
+    "spin": "a person spins around",
+    "jump": "a person jumps on the beat",
+    "kick": "a person kicks their legs forward",
+    "walk": "a person walks in a circle",
+}
+NAMES = list(MOVES)
+#: preference of each section for each move (same order as MOVES)
+SECTION_WEIGHTS = {
+    "intro": (4, 2, 4, 1, 2, 0, 0, 0, 1),
+    "verse": (3, 4, 3, 2, 3, 1, 1, 1, 2),
+    "chorus": (1, 2, 1, 4, 2, 3, 4, 3, 1),
+    "bridge": (2, 1, 4, 3, 1, 2, 1, 1, 3),
+    "outro": (4, 2, 4, 1, 2, 0, 0, 0, 0),
+}
+(PELVIS, L_HIP, R_HIP, SPINE1, L_KNEE, R_KNEE, SPINE2, L_ANKLE, R_ANKLE, SPINE3, L_FOOT, R_FOOT, NECK,
+ L_COLLAR, R_COLLAR, HEAD, L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_WRIST, R_WRIST, L_HAND, R_HAND) = range(24)
+#: root height when standing: the pelvis above the lowest foot joint, plus the foot's thickness
+STAND = float(SMPL_REST[0, 1] - SMPL_REST[[10, 11], 1].min() + 0.03)
+THIGH = float(np.linalg.norm(SMPL_REST[4] - SMPL_REST[1]))
+
+
+@dataclass
+class Style:
+    """Per-dance variation: amplitude, groove depth, arm carriage, lead side, speed."""
+
+    amplitude: float
+    groove: float
+    arms: float
+    lead: float
+    speed: float
+
+    @classmethod
+    def draw(cls, rng: np.random.Generator) -> Style:
+        """A random style."""
+        return cls(float(rng.uniform(0.7, 1.3)), float(rng.uniform(0.025, 0.06)), float(rng.uniform(-0.25, 0.2)),
+                   float(rng.choice([-1.0, 1.0])), float(rng.uniform(0.15, 0.3)))
+
+
+def _pose(move: str, phi: np.ndarray, st: Style) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rotations ``(N, 24, 3)``, root offsets ``(N, 3)`` (lateral, up, forward) and rates
+    ``(N, 3)`` (lateral and forward metres per beat, yaw radians per beat) of one move."""
+    n = len(phi)
+    rot = np.zeros((n, 24, 3))
+    off = np.zeros((n, 3))
+    rate = np.zeros((n, 3))
+    a, s = st.amplitude, st.lead
+    g = (1 + np.cos(2 * np.pi * phi)) / 2  # 1 on every beat, 0 half-way between
+    # arms hang down (rotation about z), elbows slightly bent: the shared base pose
+    rot[:, L_SHOULDER, 2], rot[:, R_SHOULDER, 2] = -1.2 - st.arms, 1.2 + st.arms
+    rot[:, L_ELBOW, 1], rot[:, R_ELBOW, 1] = -0.3, 0.3
+    swing = np.sin(np.pi * phi)  # +-1 over two beats
+    if move == "bounce":
+        rot[:, L_SHOULDER, 0] = -0.25 * a * swing
+        rot[:, R_SHOULDER, 0] = 0.25 * a * swing
+        rot[:, NECK, 0] = 0.1 * a * g
+    elif move == "step-touch":
+        off[:, 0] = 0.18 * a * s * np.sin(np.pi * phi / 2)
+        rot[:, L_HIP, 2] = -0.12 * a * np.clip(np.sin(np.pi * phi / 2), 0, None)
+        rot[:, R_HIP, 2] = 0.12 * a * np.clip(-np.sin(np.pi * phi / 2), 0, None)
+        rot[:, L_ELBOW, 1] -= 0.6 * a * (1 - g)
+        rot[:, R_ELBOW, 1] += 0.6 * a * (1 - g)
+    elif move == "sway":
+        roll = 0.12 * a * s * np.sin(np.pi * phi)
+        rot[:, PELVIS, 2] = roll
+        rot[:, SPINE1, 2] = -0.6 * roll
+        rot[:, SPINE3, 2] = -0.4 * roll
+        rot[:, L_SHOULDER, 2] += 0.5 + 0.3 * roll / 0.12
+        rot[:, R_SHOULDER, 2] -= 0.5 - 0.3 * roll / 0.12
+    elif move == "arm-wave":
+        for k, (sh, el, wr, sign) in enumerate(((L_SHOULDER, L_ELBOW, L_WRIST, 1), (R_SHOULDER, R_ELBOW, R_WRIST, -1))):
+            lag = np.pi * k * (s > 0)
+            rot[:, sh, 2] = sign * (1.3 + 0.35 * a * np.sin(np.pi * phi + lag))
+            rot[:, el, 2] = sign * 0.5 * a * np.sin(np.pi * phi + lag - 0.8)
+            rot[:, wr, 2] = sign * 0.4 * a * np.sin(np.pi * phi + lag - 1.6)
+    elif move == "clap":
+        rot[:, L_SHOULDER] = np.stack([-1.0 * a + 0 * g, -0.5 - 0.5 * g, -1.0 + 0 * g], -1)
+        rot[:, R_SHOULDER] = np.stack([-1.0 * a + 0 * g, 0.5 + 0.5 * g, 1.0 + 0 * g], -1)
+        rot[:, L_ELBOW, 1], rot[:, R_ELBOW, 1] = -0.5 - 0.6 * g, 0.5 + 0.6 * g
+    elif move == "spin":
+        rate[:, 2] = s * np.pi * np.sin(np.pi * phi / BEATS_PER_BAR) ** 2  # integrates to 2 pi per bar
+        rot[:, L_SHOULDER, 2], rot[:, R_SHOULDER, 2] = -0.5 * a, 0.5 * a
+    elif move == "jump":
+        off[:, 1] = 0.12 * a * np.sin(np.pi * phi) ** 2
+        rot[:, L_SHOULDER, 2] = -1.2 + 0.9 * a * np.sin(np.pi * phi) ** 2
+        rot[:, R_SHOULDER, 2] = 1.2 - 0.9 * a * np.sin(np.pi * phi) ** 2
+    elif move == "kick":
+        left = np.clip(np.sin(np.pi * phi), 0, None) ** 2
+        right = np.clip(-np.sin(np.pi * phi), 0, None) ** 2
+        rot[:, L_HIP, 0], rot[:, R_HIP, 0] = -0.9 * a * left, -0.9 * a * right
+        rot[:, L_SHOULDER, 0], rot[:, R_SHOULDER, 0] = 0.3 * a * left, 0.3 * a * right
+    elif move == "walk":
+        rate[:, 1] = st.speed
+        rate[:, 2] = s * np.pi / 4
+        rot[:, L_HIP, 0], rot[:, R_HIP, 0] = -0.35 * a * swing, 0.35 * a * swing
+        rot[:, L_KNEE, 0] = 0.5 * a * np.clip(swing, 0, None)
+        rot[:, R_KNEE, 0] = 0.5 * a * np.clip(-swing, 0, None)
+        rot[:, L_SHOULDER, 0], rot[:, R_SHOULDER, 0] = 0.3 * a * swing, -0.3 * a * swing
+    # the groove: a knee bend and hip dip on every beat, whatever the move
+    bend = np.arccos(1 - st.groove * g / (2 * THIGH))
+    for hip, knee, ankle in ((L_HIP, L_KNEE, L_ANKLE), (R_HIP, R_KNEE, R_ANKLE)):
+        rot[:, hip, 0] -= bend
+        rot[:, knee, 0] += 2 * bend
+        rot[:, ankle, 0] -= bend
+    off[:, 1] -= st.groove * g
+    return rot, off, rate
+
+
+def choose_moves(sections: list[tuple[str, int, int]], rng: np.random.Generator) -> list[int]:
+    """A move per bar: phrases of one or two bars drawn with the section's preferences."""
+    moves: list[int] = []
+    for name, first, end in sections:
+        w = np.asarray(SECTION_WEIGHTS.get(name, SECTION_WEIGHTS["verse"]), float)
+        bar = first
+        while bar < end:
+            m = int(rng.choice(len(NAMES), p=w / w.sum()))
+            length = int(rng.choice([1, 2, 2]))
+            moves += [m] * min(length, end - bar)
+            bar += length
+    return moves
+
+
+def dance(beats_offset: float, period: float, bar_moves: list[int], seconds: float, fps: float,
+          style: Style) -> tuple[Motion, tuple[TextSpan, ...]]:
+    """The dance for a song whose first downbeat is at ``beats_offset`` with beats every ``period`` s."""
+    n = frame_count(seconds, fps)
+    t = np.arange(n) / fps
+    beat = (t - beats_offset) / period
+    bar = np.clip(np.floor(beat / BEATS_PER_BAR).astype(int), 0, len(bar_moves) - 1)
+    phi = beat - BEATS_PER_BAR * np.floor(beat / BEATS_PER_BAR)
+    moves = np.asarray(bar_moves)[bar]
+    nxt = np.asarray(bar_moves)[np.minimum(bar + 1, len(bar_moves) - 1)]
+    blend = np.clip((phi - (BEATS_PER_BAR - 0.5)) / 0.5, 0, 1) * (beat >= 0)  # no change before bar 0
+    blend = blend * blend * (3 - 2 * blend)  # smoothstep into the next bar's move
+    weights = np.zeros((n, len(NAMES)))
+    np.add.at(weights, (np.arange(n), moves), 1 - blend)
+    np.add.at(weights, (np.arange(n), nxt), blend)
+    rot = np.zeros((n, 24, 3))
+    off = np.zeros((n, 3))
+    rate = np.zeros((n, 3))
+    for m in np.flatnonzero(weights.sum(0) > 0):
+        r, o, v = _pose(NAMES[m], phi, style)
+        w = weights[:, m]
+        rot += w[:, None, None] * r
+        off += w[:, None] * o
+        rate += w[:, None] * v
+    dt_beats = 1.0 / (fps * period)
+    yaw = np.cumsum(rate[:, 2]) * dt_beats
+    h = yaw_quat(yaw)
+    step = quat_rotate(h, np.stack([rate[:, 0], np.zeros(n), rate[:, 1]], -1)) * dt_beats
+    ground = np.cumsum(step, axis=0)
+    root = ground + quat_rotate(h, off * np.array([1.0, 0.0, 1.0])) + np.array([0.0, STAND, 0.0])
+    root[:, 1] += off[:, 1]
+    quats = expmap_to_quat(rot)
+    quats[:, 0] = quat_mul(h, quats[:, 0])
+    motion = Motion(smpl24(), fps, root, quats)
+    texts = []
+    start_bar = 0
+    for b in range(1, len(bar_moves) + 1):
+        if b == len(bar_moves) or bar_moves[b] != bar_moves[start_bar]:
+            t0 = max(0.0, beats_offset + start_bar * BEATS_PER_BAR * period)
+            t1 = min(seconds, beats_offset + b * BEATS_PER_BAR * period)
+            if t1 > t0:
+                texts.append(TextSpan(MOVES[NAMES[bar_moves[start_bar]]], round(float(t0), 4), round(float(t1), 4)))
+            start_bar = b
+    return motion, tuple(texts)

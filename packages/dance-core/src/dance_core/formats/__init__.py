@@ -1,0 +1,1 @@
+"""Registered motion file formats: BVH, AIST++/SMPL pickles, joint-position arrays and 2D keypoints."""

@@ -1,0 +1,62 @@
+"""Pydantic configs of the motion components (light: registering them imports no NumPy work)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field, PositiveFloat, PositiveInt
+
+from dance_core.config import ComponentConfig
+
+RotationKind = Literal["expmap", "6d", "quat", "matrix"]
+
+
+class RotationRepresentationConfig(ComponentConfig):
+    """Joint rotations plus a root; Transflower's is ``rotation: expmap, root: deltas`` (67-d on 21 joints)."""
+
+    rotation: RotationKind = "expmap"
+    root: Literal["deltas", "absolute"] = "deltas"
+    joints: list[str] | None = Field(None, description="joints to keep (others rest at identity); all when unset")
+
+
+class PositionRepresentationConfig(ComponentConfig):
+    """Joint positions relative to the root's ground point, plus root ground deltas and height."""
+
+    dims: Literal[2, 3] = 3
+    root: Literal["deltas", "absolute"] = "deltas"
+
+
+class BvhFormatConfig(ComponentConfig):
+    """Length scale applied on read (inverted on write), and decimals written."""
+
+    scale: PositiveFloat = 1.0
+    precision: PositiveInt = 6
+
+
+class SmplFormatConfig(ComponentConfig):
+    """Frame rate of AIST++ pickles (they store none) and the translation scale to metres."""
+
+    fps: PositiveFloat = 60.0
+    trans_scale: PositiveFloat | None = Field(None, description="multiply smpl_trans; default 1/smpl_scaling")
+
+
+class JointsFormatConfig(ComponentConfig):
+    """HumanML3D ``new_joints`` arrays ``(T, 22, 3)``: their frame rate."""
+
+    fps: PositiveFloat = 20.0
+
+
+class KeypointsFormatConfig(ComponentConfig):
+    """2D keypoints ``(T, 25, 2|3)`` in OpenPose BODY_25 order: their frame rate and pixel scale."""
+
+    fps: PositiveFloat = 30.0
+    scale: PositiveFloat = 1.0
+
+
+class PreviewFormatConfig(ComponentConfig):
+    """Size and frame rate of rendered previews."""
+
+    width: PositiveInt = 480
+    height: PositiveInt = 480
+    fps: PositiveFloat | None = Field(None, description="frame rate of the preview; default the motion's (max 30)")
+    trail: bool = True

@@ -1,0 +1,82 @@
+import json
+
+import numpy as np
+import pytest
+
+from dance_core.data.synth_dance import MOVES
+from dance_core.data.synthetic_dance import make_clip, write_dataset
+from dance_core.formats.bvh import BvhFormat
+
+KW = {"seconds": 20.0, "bpm": (80.0, 140.0), "rate": 11025, "fps": 60.0}
+
+
+@pytest.fixture(scope="module")
+def clips():
+    return [make_clip(i, seed=7, **KW) for i in range(4)]
+
+
+def test_same_seed_same_song_and_dance():
+    a, b = make_clip(2, seed=3, **KW), make_clip(2, seed=3, **KW)
+    np.testing.assert_array_equal(a.audio.samples, b.audio.samples)
+    np.testing.assert_array_equal(a.motion.values, b.motion.values)
+    assert a.texts == b.texts
+    c = make_clip(2, seed=4, **KW)
+    assert c.meta["bpm"] != a.meta["bpm"]
+
+
+def test_the_dancers_hips_bottom_out_on_the_beats(clips):
+    for clip in clips:
+        fps = clip.motion.fps
+        y = clip.motion.skeleton_motion.positions()[:, 0, 1]  # pelvis height
+        v = np.diff(y)
+        turns = np.flatnonzero((v[:-1] < 0) & (v[1:] >= 0)) + 1  # vertical velocity turns from down to up
+        beat_frames = np.asarray(clip.meta["beats"]) * fps
+        inside = beat_frames[(beat_frames > 2) & (beat_frames < len(y) - 3)]
+        assert len(turns) >= len(inside) - 1
+        # every bottom is within one frame of a beat, and every beat has a bottom within one frame
+        assert np.abs(turns[:, None] - beat_frames[None]).min(axis=1).max() <= 1.0
+        assert np.abs(inside[:, None] - turns[None]).min(axis=1).max() <= 1.0
+
+
+def test_moves_are_labelled_with_time_spans_and_vary(clips):
+    seen = set()
+    for clip in clips:
+        spans = clip.texts
+        assert spans and all(t.text in MOVES.values() for t in spans)
+        assert all(0 <= t.start < t.end <= KW["seconds"] for t in spans)
+        assert all(a.end == pytest.approx(b.start) for a, b in zip(spans[:-1], spans[1:], strict=True))
+        seen |= {t.text for t in spans}
+    assert len(MOVES) >= 8 and len(seen) >= 5
+    many = {t.text for i in range(12) for t in make_clip(i, seed=1, **{**KW, "seconds": 30.0}).texts}
+    assert len(many) == len(MOVES)
+
+
+def test_one_song_admits_several_dances():
+    a, b = (make_clip(i, seed=2, dances_per_song=2, **KW) for i in (0, 1))
+    np.testing.assert_array_equal(a.audio.samples, b.audio.samples)
+    assert a.name == "synth-0000-0" and b.name == "synth-0000-1"
+    assert np.abs(a.motion.values - b.motion.values).max() > 0.1
+
+
+def test_the_dancer_stays_on_its_feet_and_moves_smoothly(clips):
+    for clip in clips:
+        pos = clip.motion.skeleton_motion.positions()
+        feet = pos[:, [10, 11], 1].min(axis=1)
+        assert feet.min() > -0.05 and np.median(feet) < 0.1
+        speed = np.linalg.norm(np.diff(pos, axis=0), axis=-1).max() * clip.motion.fps
+        assert speed < 12.0  # m/s: no teleporting joints
+        travel = np.linalg.norm(pos[:, 0, [0, 2]] - pos[0, 0, [0, 2]], axis=-1)
+        assert travel.max() < 6.0
+
+
+def test_written_dataset_has_audio_bvh_beats_and_labels(tmp_path):
+    names = write_dataset(tmp_path, songs=2, seed=1, seconds=6.0, fps=30.0, rate=8000)
+    assert names == ["synth-0000", "synth-0001"]
+    clip = make_clip(1, seed=1, seconds=6.0, bpm=(80.0, 140.0), rate=8000, fps=30.0)
+    motion = BvhFormat().read_motion(tmp_path / "synth-0001.bvh").conformed(clip.motion.skeleton_motion.skeleton)
+    np.testing.assert_allclose(motion.positions(), clip.motion.skeleton_motion.positions(), atol=1e-3)
+    beats = np.loadtxt(tmp_path / "synth-0001.beats")
+    np.testing.assert_allclose(beats[:, 0], clip.meta["beats"], atol=1e-4)
+    assert list(beats[:4, 1]) == [1, 2, 3, 4]
+    info = json.loads((tmp_path / "synth-0001.json").read_text())
+    assert info["texts"][0]["text"] == clip.texts[0].text and info["bpm"] == pytest.approx(clip.meta["bpm"])
