@@ -55,6 +55,12 @@ def register_motion_formats(register):
              suffixes=(".npz",))
     register("bvh", mc.BvhFormatConfig, "dance_core.formats.bvh:build",
              "BVH mocap: any channel order, End Sites, continuous Euler", suffixes=(".bvh",))
+    register("smpl", mc.SmplFormatConfig, "dance_core.formats.smpl:build",
+             "AIST++ SMPL pickles (smpl_poses, smpl_trans), restricted unpickler", suffixes=(".pkl",))
+    register("joints", mc.JointsFormatConfig, "dance_core.formats.joints:build",
+             "HumanML3D new_joints arrays (T, 22, 3)", suffixes=(".npy",))
+    register("keypoints", mc.KeypointsFormatConfig, "dance_core.formats.keypoints:build",
+             "2D OpenPose BODY_25 keypoints as JSON (ours or DanceRevolution's dance_array)", suffixes=(".json",))
 
 
 @hookimpl
