@@ -1,15 +1,16 @@
 """``dance evaluate`` end to end on the synthetic choreography written to disk."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from dance_core.cli.main import main
+from dance_core.components.configs import SyntheticBeatsConfig
 from dance_core.components.npz import NpzFormat
 from dance_core.components.synthetic import SyntheticBeats
 from dance_core.components.wav import write_wav
-from dance_core.components.configs import SyntheticBeatsConfig
 from dance_core.protocols import MotionData
 
 
@@ -35,9 +36,20 @@ def synthetic_set(tmp_path_factory):
 
 def test_evaluate_writes_report_table_and_plots(synthetic_set, capsys):
     out = synthetic_set / "out" / "report.json"
-    rc = main(["-q", "evaluate", "--generated", str(synthetic_set / "generated"),
-               "--reference", str(synthetic_set / "reference"), "--music", str(synthetic_set / "beats"),
-               "-o", str(out)])
+    rc = main(
+        [
+            "-q",
+            "evaluate",
+            "--generated",
+            str(synthetic_set / "generated"),
+            "--reference",
+            str(synthetic_set / "reference"),
+            "--music",
+            str(synthetic_set / "beats"),
+            "-o",
+            str(out),
+        ]
+    )
     assert rc == 0
     report = json.loads(out.read_text())
     values = report["values"]
@@ -53,16 +65,32 @@ def test_evaluate_writes_report_table_and_plots(synthetic_set, capsys):
     plots = report["plots"]
     assert any(p.endswith("freezing.png") for p in plots) and len(plots) == 5
     for p in plots:
-        assert open(p, "rb").read(8) == b"\x89PNG\r\n\x1a\n"
+        assert Path(p).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     shown = capsys.readouterr().out
     assert "FID_k" in shown and "PFF" in shown
 
 
 def test_evaluate_reference_against_itself_and_audio_beats(synthetic_set):
     out = synthetic_set / "self.json"
-    rc = main(["-q", "evaluate", "--generated", str(synthetic_set / "reference"),
-               "--reference", str(synthetic_set / "reference"), "--music", str(synthetic_set / "music"),
-               "--metrics", "fid-k", "fmd", "bas-bailando", "-o", str(out), "--no-plots"])
+    rc = main(
+        [
+            "-q",
+            "evaluate",
+            "--generated",
+            str(synthetic_set / "reference"),
+            "--reference",
+            str(synthetic_set / "reference"),
+            "--music",
+            str(synthetic_set / "music"),
+            "--metrics",
+            "fid-k",
+            "fmd",
+            "bas-bailando",
+            "-o",
+            str(out),
+            "--no-plots",
+        ]
+    )
     assert rc == 0
     report = json.loads(out.read_text())
     assert report["values"]["FID_k"] == pytest.approx(0.0, abs=1e-6)
@@ -70,9 +98,26 @@ def test_evaluate_reference_against_itself_and_audio_beats(synthetic_set):
     assert any("from energy onset peaks" in n or "beat tracker" in n for n in report["notes"])
     # beats found in the click tracks score like the annotated beats
     annotated = synthetic_set / "annotated.json"
-    assert main(["-q", "evaluate", "--generated", str(synthetic_set / "reference"), "--no-plots",
-                 "--reference", str(synthetic_set / "reference"), "--music", str(synthetic_set / "beats"),
-                 "--metrics", "bas-bailando", "-o", str(annotated)]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "evaluate",
+                "--generated",
+                str(synthetic_set / "reference"),
+                "--no-plots",
+                "--reference",
+                str(synthetic_set / "reference"),
+                "--music",
+                str(synthetic_set / "beats"),
+                "--metrics",
+                "bas-bailando",
+                "-o",
+                str(annotated),
+            ]
+        )
+        == 0
+    )
     expected = json.loads(annotated.read_text())["values"]["BAS_bailando"]
     assert report["values"]["BAS_bailando"] == pytest.approx(expected, abs=0.03)
 
@@ -95,9 +140,32 @@ def test_evaluate_errors_are_one_line(synthetic_set, tmp_path, capsys):
     rc = main(["-q", "evaluate", "--generated", str(empty), "--reference", str(synthetic_set / "reference")])
     err = capsys.readouterr().err
     assert rc == 1 and "no motion files" in err and len(err.strip().splitlines()) == 1
-    rc = main(["-q", "evaluate", "--generated", str(synthetic_set / "generated"),
-               "--reference", str(synthetic_set / "reference"), "--metrics", "fid-x"])
+    rc = main(
+        [
+            "-q",
+            "evaluate",
+            "--generated",
+            str(synthetic_set / "generated"),
+            "--reference",
+            str(synthetic_set / "reference"),
+            "--metrics",
+            "fid-x",
+        ]
+    )
     assert rc == 1 and "unknown metric 'fid-x'" in capsys.readouterr().err
-    rc = main(["-q", "evaluate", "--generated", str(synthetic_set / "generated"), "--no-plots",
-               "--reference", str(synthetic_set / "reference"), "--metrics", "bas-fact", "-o", str(tmp_path / "r.json")])
+    rc = main(
+        [
+            "-q",
+            "evaluate",
+            "--generated",
+            str(synthetic_set / "generated"),
+            "--no-plots",
+            "--reference",
+            str(synthetic_set / "reference"),
+            "--metrics",
+            "bas-fact",
+            "-o",
+            str(tmp_path / "r.json"),
+        ]
+    )
     assert rc == 1 and "needs music beats" in capsys.readouterr().err

@@ -11,21 +11,26 @@ import argparse
 def add_parser(subparsers) -> None:
     """Add the ``evaluate`` subcommand."""
     p = subparsers.add_parser(
-        "evaluate", help="score generated dances against reference dances (FID, BAS, freezing...)",
+        "evaluate",
+        help="score generated dances against reference dances (FID, BAS, freezing...)",
         description="Score a folder of generated motion files against a folder of reference motion "
-                    "files with the registered metrics; writes a JSON report and plots.",
+        "files with the registered metrics; writes a JSON report and plots.",
     )
     p.add_argument("--generated", required=True, metavar="DIR", help="folder of generated motion files")
     p.add_argument("--reference", required=True, metavar="DIR", help="folder of reference (real) motion files")
-    p.add_argument("--music", metavar="DIR",
-                   help="folder of the songs (audio or NAME.beats) named like the motion files")
+    p.add_argument(
+        "--music", metavar="DIR", help="folder of the songs (audio or NAME.beats) named like the motion files"
+    )
     p.add_argument("--metrics", nargs="+", metavar="NAME", help="metrics to compute (default: all registered)")
     p.add_argument("-o", "--out", default="report.json", help="JSON report to write (default: report.json)")
     p.add_argument("--plots", metavar="DIR", help="folder for the figures (default: next to the report)")
     p.add_argument("--no-plots", action="store_true", help="write no figures")
     p.add_argument("--plot-clips", type=int, default=4, metavar="N", help="beat figures for N clips (default 4)")
-    p.add_argument("--compat", action="store_true",
-                   help="reproduce the AIST++/Bailando feature bugs, for comparison with published tables")
+    p.add_argument(
+        "--compat",
+        action="store_true",
+        help="reproduce the AIST++/Bailando feature bugs, for comparison with published tables",
+    )
     p.add_argument("--up", choices=("y", "z"), help="up axis of the motion files (default: what the format says)")
     p.add_argument("--fps", type=float, help="common frame rate (default: the reference set's)")
     p.set_defaults(run=run)
@@ -38,7 +43,8 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from dance_core.errors import DanceError
-    from dance_core.evaluation import loading, report as R
+    from dance_core.evaluation import loading
+    from dance_core.evaluation import report as R
     from dance_core.registry import get_registry
     from dance_core.runtime import progress_bar
 
@@ -48,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
     if args.fps is not None and args.fps <= 0:
         raise DanceError(f"--fps must be positive, got {args.fps}")
     with progress_bar(args.quiet) as bar:
+
         def reader(label: str):
             task = bar.add_task(label, total=None, info="") if bar else None
             return (lambda path: bar.update(task, advance=1, info=path.name)) if bar else None
@@ -59,11 +66,23 @@ def run(args: argparse.Namespace) -> int:
         notes = loading.attach_music(generated, args.music, registry) if args.music else []
         names = args.metrics or registry.names("metric")
         task = bar.add_task("metrics", total=len(names), info="") if bar else None
-        report = R.evaluate(generated, reference, names, compat=args.compat, registry=registry,
-                            progress=(lambda n: bar.update(task, advance=1, info=n)) if bar else None)
+        report = R.evaluate(
+            generated,
+            reference,
+            names,
+            compat=args.compat,
+            registry=registry,
+            progress=(lambda n: bar.update(task, advance=1, info=n)) if bar else None,
+        )
     report.notes[:0] = notes
-    report.info = {"generated": str(args.generated), "reference": str(args.reference), "music": args.music,
-                   "fps": fps, "compat": args.compat, "clips": {"generated": len(generated), "reference": len(reference)}}
+    report.info = {
+        "generated": str(args.generated),
+        "reference": str(args.reference),
+        "music": args.music,
+        "fps": fps,
+        "compat": args.compat,
+        "clips": {"generated": len(generated), "reference": len(reference)},
+    }
     out = Path(args.out)
     if not args.no_plots:
         from dance_core.evaluation.plots import write_plots

@@ -95,7 +95,9 @@ def fact_score(music_beats: np.ndarray, motion_beats: np.ndarray, sigma: float =
     return float(np.exp(-(d**2) / (2 * sigma**2)).mean())
 
 
-def coverage_and_hit_rate(music_beats: np.ndarray, kinematic_beats: np.ndarray, tolerance: float) -> tuple[float, float]:
+def coverage_and_hit_rate(
+    music_beats: np.ndarray, kinematic_beats: np.ndarray, tolerance: float
+) -> tuple[float, float]:
     """DanceRevolution's beat coverage ``B_k / B_m`` and hit rate ``B_a / B_k`` (as fractions)."""
     if len(music_beats) == 0:
         raise ValueError("no music beats")

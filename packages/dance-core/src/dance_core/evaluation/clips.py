@@ -11,9 +11,30 @@ from dance_core.protocols import JointClip
 
 #: SMPL's 24 joints in body-model order, as the AIST++ feature code names them
 SMPL_AIST_NAMES = (
-    "root", "lhip", "rhip", "belly", "lknee", "rknee", "spine", "lankle", "rankle", "chest", "ltoes",
-    "rtoes", "neck", "linshoulder", "rinshoulder", "head", "lshoulder", "rshoulder", "lelbow", "relbow",
-    "lwrist", "rwrist", "lhand", "rhand",
+    "root",
+    "lhip",
+    "rhip",
+    "belly",
+    "lknee",
+    "rknee",
+    "spine",
+    "lankle",
+    "rankle",
+    "chest",
+    "ltoes",
+    "rtoes",
+    "neck",
+    "linshoulder",
+    "rinshoulder",
+    "head",
+    "lshoulder",
+    "rshoulder",
+    "lelbow",
+    "relbow",
+    "lwrist",
+    "rwrist",
+    "lhand",
+    "rhand",
 )
 
 
@@ -35,8 +56,9 @@ def resampled(clip: JointClip, fps: float) -> JointClip:
     """The clip at another frame rate (a copy; beats and names kept)."""
     if abs(clip.fps - fps) < 1e-9:
         return clip
-    return JointClip(clip.name, resample(clip.positions, clip.fps, fps), fps, clip.joints,
-                     clip.music_beats, dict(clip.meta))
+    return JointClip(
+        clip.name, resample(clip.positions, clip.fps, fps), fps, clip.joints, clip.music_beats, dict(clip.meta)
+    )
 
 
 def z_up_to_y_up(positions: np.ndarray) -> np.ndarray:
@@ -96,9 +118,7 @@ def smpl_layout(clip: JointClip, what: str) -> np.ndarray:
             return p[:, index]
     if p.shape[1] == 24:
         return p
-    raise DataError(
-        f"{clip.name}: {what} needs the 24 SMPL joints (AIST++ layout); the clip has {p.shape[1]} joints"
-    )
+    raise DataError(f"{clip.name}: {what} needs the 24 SMPL joints (AIST++ layout); the clip has {p.shape[1]} joints")
 
 
 def _smpl_index(names: list[str]) -> list[int] | None:

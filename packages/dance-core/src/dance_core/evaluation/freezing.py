@@ -1,6 +1,6 @@
 """TM2D's freezing scores: the percentage of frozen frames (PFF) and its area under the curve (AUC_f).
 
-A frame is frozen when the largest joint speed stays below a threshold (0.015 m/s in TM2D) for a
+A frame is frozen when the largest joint speed stays at or below a threshold (0.015 m/s in TM2D) for a
 run of at least ``min_seconds`` (3 s). PFF is the percentage of frozen frames. AUC_f integrates
 PFF over thresholds from 0 to 0.03 m/s and divides by that range, so it reads as the mean PFF (%)
 over the thresholds: 100 for a clip that never moves, 0 for one that never slows down.
@@ -19,8 +19,11 @@ def max_joint_speed(positions: np.ndarray, fps: float) -> np.ndarray:
 
 
 def frozen_mask(speed: np.ndarray, fps: float, threshold: float, min_seconds: float) -> np.ndarray:
-    """Frames inside runs where ``speed < threshold`` that last at least ``min_seconds``."""
-    slow = np.asarray(speed) < threshold
+    """Frames inside runs where ``speed <= threshold`` that last at least ``min_seconds``.
+
+    (``<=`` so that at threshold 0 a perfectly still stretch still counts as frozen.)
+    """
+    slow = np.asarray(speed) <= threshold
     mask = np.zeros(len(slow), dtype=bool)
     min_frames = int(np.ceil(min_seconds * fps - 1e-9))
     edges = np.flatnonzero(np.diff(np.concatenate([[0], slow.astype(np.int8), [0]])))

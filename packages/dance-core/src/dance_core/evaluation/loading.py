@@ -15,6 +15,7 @@ from dance_core.evaluation.clips import resampled, z_up_to_y_up
 from dance_core.protocols import JointClip, MotionData
 from dance_core.registry import Registry
 
+NOMINAL_HEIGHT = 1.7  # metres, for skeletons of unknown units and implausible size
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "dm": 0.1, "in": 0.0254, "inch": 0.0254}
 _POSITION_CHANNEL = re.compile(r"^(.+)[._]([xyzXYZ])$")
 
@@ -39,6 +40,25 @@ def read_motion_file(path: Path, registry: Registry) -> MotionData:
     return entry.build().read(str(path))
 
 
+def metres_per_unit(skeleton) -> float:
+    """Metres per skeleton unit: from its declared units, else from a plausible body height.
+
+    Files whose units are unknown (BVH reports ``"file"``) are read as metres, centimetres,
+    millimetres or inches, whichever makes the rest pose 1.0-2.5 m tall; failing that, the body is
+    scaled to ``NOMINAL_HEIGHT`` (speed thresholds such as PFF's are in m/s).
+    """
+    units = str(getattr(skeleton, "units", "m")).lower()
+    if units in UNITS:
+        return UNITS[units]
+    height = float(skeleton.height())
+    if height <= 0:
+        raise DataError(f"skeleton {getattr(skeleton, 'name', '')!r}: zero height; cannot infer its units")
+    for factor in (1.0, 0.01, 0.001, 0.0254):
+        if 1.0 <= height * factor <= 2.5:
+            return factor
+    return NOMINAL_HEIGHT / height
+
+
 def joint_positions(data: MotionData, where: str) -> tuple[np.ndarray, list[str] | None, str]:
     """``(T, J, 3)`` positions in metres, joint names, and the up axis of a read motion.
 
@@ -48,17 +68,16 @@ def joint_positions(data: MotionData, where: str) -> tuple[np.ndarray, list[str]
     skeletal = getattr(data, "skeleton_motion", None)
     if skeletal is not None:
         skeleton = skeletal.skeleton
-        units = str(getattr(skeleton, "units", "m")).lower()
-        if units not in UNITS:
-            raise DataError(f"{where}: unknown skeleton units {units!r} (known: {', '.join(UNITS)})")
-        positions = np.asarray(skeletal.positions(), dtype=np.float64) * UNITS[units]
+        positions = np.asarray(skeletal.positions(), dtype=np.float64) * metres_per_unit(skeleton)
         return positions, list(skeleton.names), str(getattr(skeleton, "up", "y")).lower()
     channels = list(data.channels or [])
     values = np.asarray(data.values, dtype=np.float64)
     matches = [_POSITION_CHANNEL.match(c) for c in channels]
     if channels and len(channels) % 3 == 0 and all(matches):
         triples = [matches[i : i + 3] for i in range(0, len(matches), 3)]
-        if all([m.group(2).lower() for m in t] == ["x", "y", "z"] and len({m.group(1) for m in t}) == 1 for t in triples):
+        if all(
+            [m.group(2).lower() for m in t] == ["x", "y", "z"] and len({m.group(1) for m in t}) == 1 for t in triples
+        ):
             names = [t[0].group(1) for t in triples]
             return values.reshape(len(values), -1, 3), names, "y"
     raise DataError(

@@ -11,8 +11,8 @@ from dance_core.errors import DataError
 from dance_core.evaluation import beats as B
 from dance_core.evaluation.clips import check_positions, require_clips, require_frames, same_joint_count
 from dance_core.evaluation.contact import SCALE, foot_indices, pfc_clip
-from dance_core.evaluation.freezing import auc, max_joint_speed, pff_curve
 from dance_core.evaluation.frechet import average_pairwise_distance, normalize, set_distance
+from dance_core.evaluation.freezing import auc, max_joint_speed, pff_curve
 from dance_core.evaluation.geometric import geometric_features
 from dance_core.evaluation.kinetic import kinetic_features
 from dance_core.protocols import JointClip, MetricResult
@@ -42,8 +42,11 @@ class FeatureFID:
         """Score the generated set against the reference set."""
         require_clips(generated, 2, self.value)
         require_clips(reference, 2, self.value, "reference")
-        ref, gen = normalize(feature_matrix(reference, self.kind, self.compat),
-                             feature_matrix(generated, self.kind, self.compat), compat=self.compat)
+        ref, gen = normalize(
+            feature_matrix(reference, self.kind, self.compat),
+            feature_matrix(generated, self.kind, self.compat),
+            compat=self.compat,
+        )
         return MetricResult({self.value: set_distance(gen, ref, self.value)})
 
 
@@ -69,7 +72,9 @@ class FeatureDiversity:
         return MetricResult({self.value: average_pairwise_distance(gen, self.value)}, notes=notes)
 
 
-def with_music(clips: Sequence[JointClip], what: str) -> tuple[list[tuple[JointClip, np.ndarray, np.ndarray]], list[str]]:
+def with_music(
+    clips: Sequence[JointClip], what: str
+) -> tuple[list[tuple[JointClip, np.ndarray, np.ndarray]], list[str]]:
     """Clips usable for a beat metric as (clip, positions, music beats within the clip), plus notes.
 
     Clips without music beats or too short to have a motion beat are skipped with a note; a
@@ -92,7 +97,8 @@ def with_music(clips: Sequence[JointClip], what: str) -> tuple[list[tuple[JointC
             continue
         usable.append((clip, p, music))
     if not usable:
-        raise DataError(f"{what}: no clip has both motion and music beats ({'; '.join(notes)})")
+        reasons = "; ".join(n.removeprefix(f"{what}: ") for n in notes)
+        raise DataError(f"{what}: no clip has both motion and music beats ({reasons})")
     return usable, notes
 
 
@@ -158,8 +164,10 @@ class Freezing:
         for clip in generated:
             p = check_positions(clip)
             if len(p) < 2 or clip.duration < self.min_seconds:
-                notes.append(f"PFF: {clip.name}: {clip.duration:.2f} s is shorter than the "
-                             f"{self.min_seconds:g} s a freeze must last; skipped")
+                notes.append(
+                    f"PFF: {clip.name}: {clip.duration:.2f} s is shorter than the "
+                    f"{self.min_seconds:g} s a freeze must last; skipped"
+                )
                 continue
             speed = max_joint_speed(p, clip.fps)
             pff = pff_curve(speed, clip.fps, np.array([self.threshold]), self.min_seconds)[0]
@@ -169,7 +177,8 @@ class Freezing:
             frozen += pff / 100.0 * len(p)
             curves.append(curve * len(p))
         if not per_clip:
-            raise DataError(f"PFF: every clip is shorter than {self.min_seconds:g} s ({'; '.join(notes)})")
+            names = ", ".join(c.name for c in generated)
+            raise DataError(f"PFF: every clip is shorter than the {self.min_seconds:g} s a freeze must last ({names})")
         pooled = np.sum(curves, axis=0) / frames
         values = {"PFF": 100.0 * frozen / frames, "AUC_f": auc(self.thresholds, pooled)}
         return MetricResult(values, per_clip, notes)
@@ -242,7 +251,8 @@ class BeatOffset:
             pooled.append(d)
             per_clip[clip.name] = {"beat_offset_mean": float(d.mean()), "beat_offset_sd": float(d.std())}
         if not pooled:
-            raise DataError(f"beat offset: no clip has kinematic beats ({'; '.join(notes)})")
+            reasons = "; ".join(n.removeprefix("beat offset: ") for n in notes)
+            raise DataError(f"beat offset: no clip has kinematic beats ({reasons})")
         d = np.concatenate(pooled)
         return MetricResult({"beat_offset_mean": float(d.mean()), "beat_offset_sd": float(d.std())}, per_clip, notes)
 

@@ -33,8 +33,14 @@ class Report:
         return {
             **self.info,
             "values": _finite(self.values()),
-            "metrics": {name: {"values": _finite(r.values), "per_clip": {c: _finite(v) for c, v in r.per_clip.items()},
-                               "notes": r.notes} for name, r in self.results.items()},
+            "metrics": {
+                name: {
+                    "values": _finite(r.values),
+                    "per_clip": {c: _finite(v) for c, v in r.per_clip.items()},
+                    "notes": r.notes,
+                }
+                for name, r in self.results.items()
+            },
             "skipped": self.skipped,
             "notes": self.notes,
         }

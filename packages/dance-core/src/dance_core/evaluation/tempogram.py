@@ -15,8 +15,12 @@ def impulses(times: np.ndarray, n_frames: int, fps: float, weights: np.ndarray |
 
 
 def tempogram(
-    novelty: np.ndarray, fps: float, window_seconds: float = 6.0, hop_seconds: float = 0.5,
-    bpm_range: tuple[float, float] = (40.0, 240.0), n_bpm: int = 100,
+    novelty: np.ndarray,
+    fps: float,
+    window_seconds: float = 6.0,
+    hop_seconds: float = 0.5,
+    bpm_range: tuple[float, float] = (40.0, 240.0),
+    n_bpm: int = 100,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(tempogram (n_bpm, n_windows), bpm axis, window centre times)``.
 
