@@ -77,3 +77,14 @@ def test_librosa_438_rejects_fractional_rates():
 
     with pytest.raises(DataError, match="not a whole sample rate"):
         Librosa438(hop_length=512).rate(29.97)
+
+
+@pytest.mark.parametrize("rate,n_fft,n_mels,fmin,fmax", [(22050, 2048, 80, 0.0, None), (44100, 1024, 40, 30.0, 8000.0)])
+def test_mel_filterbank_equals_librosa(rate, n_fft, n_mels, fmin, fmax):
+    from dance_audio.numba_cache import import_librosa
+    from dance_audio.spectral import mel_filterbank
+
+    librosa = import_librosa()
+    ours = mel_filterbank(rate, n_fft, n_mels, fmin, fmax)
+    theirs = librosa.filters.mel(sr=rate, n_fft=n_fft, n_mels=n_mels, fmin=fmin, fmax=fmax)
+    np.testing.assert_allclose(ours, theirs, rtol=1e-5, atol=1e-8)

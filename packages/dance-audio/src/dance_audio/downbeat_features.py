@@ -70,7 +70,7 @@ def _magnitudes(y: np.ndarray, frame_size: int, n_frames: int) -> np.ndarray:
     window = np.hanning(frame_size).astype(np.float32)
     out = np.empty((n_frames, half), dtype=np.float32)
     for lo in range(0, n_frames, CHUNK):
-        out[lo : lo + CHUNK] = np.abs(scipy.fft.rfft(frames[lo : lo + CHUNK] * window, axis=1)[:, :half])
+        out[lo : lo + CHUNK] = np.abs(scipy.fft.rfft(frames[lo : lo + CHUNK] * window, axis=1, workers=-1)[:, :half])
     return out
 
 

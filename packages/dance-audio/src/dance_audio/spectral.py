@@ -15,7 +15,6 @@ import scipy.fft
 from dance_core.errors import DataError
 from dance_core.media import Audio, FeatureInputs
 
-from .numba_cache import import_librosa
 from .timing import resample
 
 CHUNK = 2048  # frames per FFT batch, bounding memory on long songs
@@ -32,8 +31,39 @@ def _power_frames(y: np.ndarray, rate: int, n_frames: int, fps: float, n_fft: in
     out = np.empty((n_frames, half + 1), dtype=np.float32)
     for lo in range(0, n_frames, CHUNK):
         frames = padded[centres[lo : lo + CHUNK, None] + offsets[None, :]] * window
-        out[lo : lo + CHUNK] = np.abs(scipy.fft.rfft(frames, axis=1)) ** 2
+        out[lo : lo + CHUNK] = np.abs(scipy.fft.rfft(frames, axis=1, workers=-1)) ** 2
     return out
+
+
+def hz_to_mel(hz: np.ndarray) -> np.ndarray:
+    """Slaney's mel scale: linear (3 mels per 200 Hz) below 1 kHz, logarithmic above."""
+    hz = np.asarray(hz, dtype=np.float64)
+    log_part = 15.0 + np.log(np.maximum(hz, 1e-10) / 1000.0) / (np.log(6.4) / 27.0)
+    return np.where(hz >= 1000.0, log_part, hz * 3.0 / 200.0)
+
+
+def mel_to_hz(mel: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`hz_to_mel`."""
+    mel = np.asarray(mel, dtype=np.float64)
+    return np.where(mel >= 15.0, 1000.0 * np.exp((np.log(6.4) / 27.0) * (mel - 15.0)), mel * 200.0 / 3.0)
+
+
+def mel_filterbank(rate: int, n_fft: int, n_mels: int, fmin: float = 0.0, fmax: float | None = None) -> np.ndarray:
+    """``(n_mels, n_fft // 2 + 1)`` triangular filters on the Slaney mel scale, each of area ~1 in Hz.
+
+    The same filters as ``librosa.filters.mel`` with its defaults (``htk=False, norm="slaney"``),
+    built here so the mel and onset features need neither librosa nor numba at run time.
+    """
+    fmax = rate / 2.0 if fmax is None else float(fmax)
+    freqs = np.fft.rfftfreq(n_fft, 1.0 / rate)
+    edges = mel_to_hz(np.linspace(hz_to_mel(fmin), hz_to_mel(fmax), n_mels + 2))
+    width = np.diff(edges)
+    ramps = edges[:, None] - freqs[None, :]
+    rising = -ramps[:-2] / width[:-1, None]
+    falling = ramps[2:] / width[1:, None]
+    weights = np.maximum(0.0, np.minimum(rising, falling))
+    weights *= (2.0 / (edges[2:] - edges[:-2]))[:, None]
+    return weights.astype(np.float32)
 
 
 def log_mel(
@@ -50,9 +80,8 @@ def log_mel(
     key = (id(audio), n_frames, fps, n_mels, rate, n_fft, fmin, fmax)
     if _cache["key"] == key and _cache["audio"] is audio:
         return _cache["value"]
-    librosa = import_librosa()
     y = resample(audio.samples, audio.rate, rate)
-    basis = librosa.filters.mel(sr=rate, n_fft=n_fft, n_mels=n_mels, fmin=fmin, fmax=fmax).astype(np.float32)
+    basis = mel_filterbank(rate, n_fft, n_mels, fmin, fmax)
     power = _power_frames(y, rate, n_frames, fps, n_fft)
     value = 10.0 * np.log10(np.maximum(power @ basis.T, AMIN))
     _cache.update(key=key, audio=audio, value=value)

@@ -1,0 +1,142 @@
+"""Time dance-audio's feature stacks on a 60 s song: warm, in a fresh process, and on a first run
+(empty numba cache), and madmom's RNNDownBeatProcessor against the torch port."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+SONG = REPO.parent / "shared" / "fixtures" / "audio" / "vibe_ace.ogg"
+FPS = 30.0
+STACKS = {
+    "transflower (mel + onset + madmom-downbeat)": ["mel", "onset", "madmom-downbeat"],
+    "librosa-438": ["librosa-438"],
+    "everything (librosa-438 + mel + onset + madmom-downbeat + beats)": [
+        "librosa-438",
+        "mel",
+        "onset",
+        "madmom-downbeat",
+        "beats",
+    ],
+}
+RUN_STACK = """
+import sys, time, warnings
+t0 = time.perf_counter()
+from dance_core.registry import get_registry
+from dance_core.data.features import load_audio
+from dance_core.media import FeatureInputs
+warnings.simplefilter("ignore")
+reg = get_registry()
+audio = load_audio(sys.argv[1], reg)
+inputs = FeatureInputs(n_frames=audio.n_frames({fps}), audio=audio)
+for name in sys.argv[2:]:
+    reg.get("feature", name).build().extract(inputs, {fps})
+print(time.perf_counter() - t0)
+"""
+
+
+def song_60s(tmp: Path) -> Path:
+    """The first 60 s of a real song (Vibe Ace, jazz) as a WAV file."""
+    import soundfile as sf
+
+    y, rate = sf.read(SONG, dtype="float32")
+    path = tmp / "song60.wav"
+    sf.write(path, y[: 60 * rate], rate)
+    return path
+
+
+def in_process(path: Path, names: list[str], repeats: int = 3) -> float:
+    """Median seconds to load and extract in a warm process (fresh Audio each time: no cache hits)."""
+    from dance_core.data.features import load_audio
+    from dance_core.media import FeatureInputs
+    from dance_core.registry import get_registry
+
+    reg = get_registry()
+    extractors = [reg.get("feature", n).build() for n in names]
+    times = []
+    for _ in range(repeats + 1):
+        t0 = time.perf_counter()
+        audio = load_audio(path, reg)
+        inputs = FeatureInputs(n_frames=audio.n_frames(FPS), audio=audio)
+        for ext in extractors:
+            ext.extract(inputs, FPS)
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times[1:])
+
+
+def subprocess_run(path: Path, names: list[str], numba_dir: str | None = None) -> tuple[float, float]:
+    """(wall seconds of a whole fresh ``python`` process, seconds inside it from first import)."""
+    env = dict(os.environ)
+    if numba_dir is not None:
+        env["NUMBA_CACHE_DIR"] = numba_dir
+    t0 = time.perf_counter()
+    out = subprocess.run(
+        [sys.executable, "-c", RUN_STACK.format(fps=FPS), str(path), *names],
+        env=env,
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    return time.perf_counter() - t0, float(out.stdout.strip().splitlines()[-1])
+
+
+def madmom_vs_port(path: Path) -> dict[str, float]:
+    """Seconds for madmom's RNNDownBeatProcessor and for the torch port on the same 44.1 kHz samples."""
+    from dance_audio.downbeat_torch import downbeat_activations, ensemble
+    from dance_audio.madmom_compat import import_madmom
+    from dance_audio.timing import resample
+    from dance_core.data.features import load_audio
+    from dance_core.registry import get_registry
+
+    audio = load_audio(path, get_registry())
+    y = resample(audio.samples, audio.rate, 44100)
+    import_madmom()
+    from madmom.audio.signal import Signal
+    from madmom.features.downbeats import RNNDownBeatProcessor
+
+    ensemble()
+    downbeat_activations(y[:44100])  # builds the model and compiles the loop once
+    t0 = time.perf_counter()
+    ref = RNNDownBeatProcessor()(Signal(y, sample_rate=44100))
+    t1 = time.perf_counter()
+    ours = downbeat_activations(y)
+    t2 = time.perf_counter()
+    return {"madmom": t1 - t0, "port": t2 - t1, "max_diff": float(np.abs(ref - ours).max())}
+
+
+def main() -> None:
+    """Print markdown tables of the timings."""
+    print(
+        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"load average {os.getloadavg()[0]:.1f}, python {platform.python_version()}"
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        path = song_60s(Path(tmp))
+        print("\n| stack (60 s song, 30 fps) | warm | fresh process | first run (empty numba cache) |")
+        print("|---|---|---|---|")
+        for label, names in STACKS.items():
+            subprocess_run(path, names)  # make sure the persistent numba cache is filled
+            warm = in_process(path, names)
+            fresh, _ = subprocess_run(path, names)
+            first, _ = subprocess_run(path, names, numba_dir=tempfile.mkdtemp(dir=tmp))
+            print(f"| {label} | {warm:.2f} s | {fresh:.2f} s | {first:.2f} s |")
+        r = madmom_vs_port(path)
+        print("\n| RNNDownBeatProcessor, 60 s | seconds | speed-up | max abs difference |")
+        print("|---|---|---|---|")
+        print(f"| madmom 0.16.1 | {r['madmom']:.2f} | 1.0x | |")
+        print(f"| torch port | {r['port']:.2f} | {r['madmom'] / r['port']:.1f}x | {r['max_diff']:.1e} |")
+        print("\n" + json.dumps(r))
+
+
+if __name__ == "__main__":
+    main()
