@@ -11,6 +11,11 @@ frames where each predicate holds. The predicates follow the AIST++ API / Bailan
 Velocities use the frame time. ``compat=True`` reproduces the reference: the clip is resampled to
 60 fps and velocities use a hard-coded 1/120 s step (twice the true speed). ``compat=False`` (the
 default) uses ``1/fps`` at the clip's own rate.
+
+The ``move`` predicates take their *third* joint as the moving point and ignore the fourth, as
+every implementation of the published protocol does (so the two "hand moves up" features measure
+the chest and are identical); we keep that in both modes, since it is the definition behind every
+published FID_g, and list all four joints so the table reads like the reference.
 """
 
 from __future__ import annotations
@@ -34,14 +39,14 @@ FEATURES: tuple[tuple[str, tuple[str, ...], object], ...] = (
     ("nmove", ("neck", "lhip", "rhip", "lwrist"), ("hl", 1.8)),
     ("nplane", ("chest", "neck", "neck", "rwrist"), ("hl", 0.2)),
     ("nplane", ("chest", "neck", "neck", "lwrist"), ("hl", 0.2)),
-    ("move", ("belly", "chest", "rwrist"), ("hl", 1.8)),
-    ("move", ("belly", "chest", "lwrist"), ("hl", 1.8)),
+    ("move", ("belly", "chest", "chest", "rwrist"), ("hl", 1.8)),
+    ("move", ("belly", "chest", "chest", "lwrist"), ("hl", 1.8)),
     ("angle", ("relbow", "rshoulder", "relbow", "rwrist"), (0, 110)),
     ("angle", ("lelbow", "lshoulder", "lelbow", "lwrist"), (0, 110)),
     ("nplane", ("lshoulder", "rshoulder", "lwrist", "rwrist"), ("sw", 2.5)),
-    ("move", ("lwrist", "rwrist", "rwrist"), ("hl", 1.4)),
-    ("move", ("rwrist", "root", "lwrist"), ("hl", 1.4)),
-    ("move", ("lwrist", "root", "rwrist"), ("hl", 1.4)),
+    ("move", ("lwrist", "rwrist", "rwrist", "lwrist"), ("hl", 1.4)),
+    ("move", ("rwrist", "root", "lwrist", "root"), ("hl", 1.4)),
+    ("move", ("lwrist", "root", "rwrist", "root"), ("hl", 1.4)),
     ("fast", ("rwrist",), ("hl", 2.5)),
     ("fast", ("lwrist",), ("hl", 2.5)),
     ("plane", ("root", "lhip", "ltoes", "rankle"), ("hl", 0.38)),
@@ -110,7 +115,7 @@ def _predicate(f: _Frames, kind: str, j: tuple[str, ...], arg, step: float) -> n
         return _along(f.now(j[3]) - a, normal) > threshold
     if kind == "nplane":  # distance of j[3] from the plane through j[2] with normal j[1] - j[0]
         return _along(f.now(j[3]) - f.now(j[2]), f.now(j[1]) - f.now(j[0])) > threshold
-    if kind == "move":  # velocity of j[2] relative to j[0], along j[1] - j[0]
+    if kind == "move":  # velocity of j[2] relative to j[0], along j[1] - j[0] (j[3] unused, see above)
         vel = (f.now(j[2]) - f.now(j[0]) - (f.before(j[2]) - f.before(j[0]))) / step
         return _along(vel, f.now(j[1]) - f.now(j[0])) > threshold
     if kind == "nmove":  # velocity of j[3] relative to j[0], along the normal of (j0, j1, j2)
