@@ -29,7 +29,8 @@ def test_reads_the_aist_sample_with_a_template_skeleton():
     pos = motion.positions()
     np.testing.assert_allclose(pos[:, 0], motion.skeleton.offsets[0] + raw["smpl_trans"], atol=1e-6)
     bones = np.linalg.norm(pos[:, 1:] - pos[:, motion.skeleton.parents[1:]], axis=-1)
-    np.testing.assert_allclose(bones, np.broadcast_to(np.linalg.norm(motion.skeleton.offsets[1:], axis=-1), bones.shape))
+    lengths = np.linalg.norm(motion.skeleton.offsets[1:], axis=-1)
+    np.testing.assert_allclose(bones, np.broadcast_to(lengths, bones.shape))
 
 
 def test_smpl_write_read_round_trip_with_scaling(tmp_path):

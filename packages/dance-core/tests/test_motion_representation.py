@@ -85,9 +85,11 @@ def test_compose_writes_bvh_that_decodes_the_generated_features(run, tmp_path):
     from dance_core.components.wav import write_wav
 
     write_wav(tmp_path / "song.wav", clip.audio.samples, clip.audio.rate)
+    recipe = load_recipe("core-dance", [*TINY, "compose.formats=[bvh, npz, html]"])
     paths = compose(recipe, music=[str(tmp_path / "song.wav")], checkpoint=str(result.checkpoint),
                     out_dir=str(tmp_path / "out"), quiet=True)
-    assert sorted(p.suffix for p in paths) == [".bvh", ".npz"]
+    assert sorted(p.suffix for p in paths) == [".bvh", ".html", ".npz"]
+    assert "data:audio/wav;base64," in (tmp_path / "out" / "song.html").read_text()  # the song plays along
     motion = BvhFormat().read_motion(tmp_path / "out" / "song.bvh")
     assert motion.skeleton.names[:3] == ["Pelvis", "L_Hip", "L_Knee"]  # BVH lists joints depth-first
     motion = motion.conformed(clip.motion.skeleton_motion.skeleton)

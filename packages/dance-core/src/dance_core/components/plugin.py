@@ -61,6 +61,9 @@ def register_motion_formats(register):
              "HumanML3D new_joints arrays (T, 22, 3)", suffixes=(".npy",))
     register("keypoints", mc.KeypointsFormatConfig, "dance_core.formats.keypoints:build",
              "2D OpenPose BODY_25 keypoints as JSON (ours or DanceRevolution's dance_array)", suffixes=(".json",))
+    for kind, what in (("gif", "animated GIF"), ("mp4", "MP4 video with the song"), ("html", "offline HTML player")):
+        register(kind, mc.PreviewFormatConfig, "dance_core.render.preview:build",
+                 f"stick-figure preview: {what} (write only)", suffixes=(f".{kind}",))
 
 
 @hookimpl
@@ -125,7 +128,9 @@ def register_recipes(register):
 
 @hookimpl
 def register_commands(subparsers):
-    """Core's commands that live outside the CLI's main module: ``dance evaluate``."""
+    """Core's commands that live outside the CLI's main module: ``dance evaluate``, ``dance render``."""
+    from dance_core.cli import render
     from dance_core.cli.evaluate import add_parser
 
     add_parser(subparsers)
+    render.add_parser(subparsers)

@@ -1,0 +1,81 @@
+"""Stick-figure frames drawn with matplotlib (Agg): bones, a floor grid and the root's trail."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+
+from dance_core.render.camera import Camera, frame_camera
+
+LEFT, RIGHT, CENTER = "#e4572e", "#2e86ab", "#333333"
+
+
+def bone_colors(names: list[str], parents: list[int]) -> list[str]:
+    """Left limbs orange, right limbs blue, the rest dark."""
+    out = []
+    for n in names:
+        low = n.lower()
+        side = LEFT if low.startswith(("l_", "left", "l")) and not low.startswith("lower") else None
+        side = RIGHT if low.startswith(("r_", "right", "r")) else side
+        out.append(side or CENTER)
+    return out
+
+
+def floor_lines(positions: np.ndarray, spacing: float) -> list[np.ndarray]:
+    """Grid lines ``(2, 3)`` on the floor under the whole motion."""
+    lo = positions[..., [0, 2]].reshape(-1, 2).min(0) - 2 * spacing
+    hi = positions[..., [0, 2]].reshape(-1, 2).max(0) + 2 * spacing
+    y = positions[..., 1].min()
+    xs = np.arange(np.floor(lo[0] / spacing), np.ceil(hi[0] / spacing) + 1) * spacing
+    zs = np.arange(np.floor(lo[1] / spacing), np.ceil(hi[1] / spacing) + 1) * spacing
+    lines = [np.array([[x, y, zs[0]], [x, y, zs[-1]]]) for x in xs]
+    lines += [np.array([[xs[0], y, z], [xs[-1], y, z]]) for z in zs]
+    return lines
+
+
+def render_frames(
+    positions: np.ndarray, parents: list[int], names: list[str], fps: float, width: int = 480, height: int = 480,
+    trail: bool = True, title: str = "", camera: Camera | None = None,
+) -> Iterator[np.ndarray]:
+    """RGB frames ``(height, width, 3)`` uint8, one per motion frame."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    cam = camera or frame_camera(positions, fps)
+    body = float(np.ptp(positions[0, :, 1]) or 1.0)
+    fig = Figure(figsize=(width / 100, height / 100), dpi=100)
+    canvas = FigureCanvasAgg(fig)
+    ax = fig.add_axes((0, 0, 1, 1))
+    ax.set_xlim(-1, 1)
+    ax.set_ylim(-1, 1)
+    ax.set_axis_off()
+    grid = [ax.plot([], [], color="#cccccc", lw=0.8)[0] for _ in floor_lines(positions, body / 2)]
+    grid_pts = floor_lines(positions, body / 2)
+    colors = bone_colors(names, parents)
+    bones = [(j, p) for j, p in enumerate(parents) if p >= 0]
+    lines = [ax.plot([], [], color=colors[j], lw=3, solid_capstyle="round")[0] for j, _ in bones]
+    joints = ax.plot([], [], "o", color="#222222", ms=2.5)[0]
+    path = ax.plot([], [], color="#8bc34a", lw=1.5, alpha=0.8)[0]
+    label = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=9, color="#555555")
+    ground_y = positions[..., 1].min()
+    trail_len = int(3 * fps)
+    for t in range(len(positions)):
+        for line, pts in zip(grid, grid_pts, strict=True):
+            xy = cam.project(pts, t)
+            line.set_data(xy[:, 0], xy[:, 1])
+        xy = cam.project(positions[t], t)
+        for line, (j, p) in zip(lines, bones, strict=True):
+            line.set_data([xy[p, 0], xy[j, 0]], [xy[p, 1], xy[j, 1]])
+        joints.set_data(xy[:, 0], xy[:, 1])
+        if trail:
+            tr = positions[max(0, t - trail_len) : t + 1, 0].copy()
+            tr[:, 1] = ground_y
+            txy = cam.project(tr, t)
+            path.set_data(txy[:, 0], txy[:, 1])
+        label.set_text(f"{title}  {t / fps:5.2f} s".strip())
+        canvas.draw()
+        yield np.asarray(canvas.buffer_rgba())[..., :3].copy()
