@@ -174,3 +174,20 @@ def test_student_t_samples_have_the_right_scale_and_are_seeded():
 def test_gaussian_log_density_normalizes_per_dimension():
     z = torch.zeros(1, N, C)
     assert GaussianBase().log_prob(z).item() == pytest.approx(-0.5 * math.log(2 * math.pi) * N * C)
+
+
+@pytest.mark.parametrize("norm", ["actnorm", "batchnorm", "none"])
+def test_fast_inversion_matches_reverse_and_follows_weight_updates(norm):
+    torch.manual_seed(7)
+    x, h = torch.randn(4, N, C), torch.randn(4, N, D_H)
+    flow = _warm(_tiny(norm), x, h)
+    z = torch.randn(4, N, C)
+    with torch.inference_mode():
+        assert torch.allclose(flow.invert(z, h), flow.reverse(z, h)[0], atol=1e-5)
+    flow.train()
+    opt = torch.optim.SGD(flow.parameters(), lr=0.01)
+    (flow(x, h)[0] * torch.randn(4, N, C)).sum().backward()
+    opt.step()
+    flow.eval()
+    with torch.inference_mode():
+        assert torch.allclose(flow.invert(z, h), flow.reverse(z, h)[0], atol=1e-5)

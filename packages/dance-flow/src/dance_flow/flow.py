@@ -48,6 +48,10 @@ class ActNorm(nn.Module):
         logdet = self.logs.sum() * z.shape[1]
         return z * torch.exp(-self.logs) - self.bias, logdet.expand(z.shape[0])
 
+    def reverse_affine(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(a, c)`` with ``reverse(z) = z * a + c``."""
+        return torch.exp(-self.logs), -self.bias
+
 
 class BatchNormFlow(nn.Module):
     """Batch normalization as an invertible layer (Real NVP): batch statistics in training, running
@@ -90,6 +94,11 @@ class BatchNormFlow(nn.Module):
         x = (z - self.beta) * torch.exp(-log_inv_std - self.log_gamma) + self.running_mean
         logdet = (log_inv_std + self.log_gamma).sum() * z.shape[1]
         return x, logdet.expand(z.shape[0])
+
+    def reverse_affine(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(a, c)`` with ``reverse(z) = z * a + c``."""
+        a = torch.sqrt(self.running_var + self.eps) * torch.exp(-self.log_gamma)
+        return a, self.running_mean - self.beta * a
 
 
 class InvConv1x1(nn.Module):
@@ -179,6 +188,14 @@ class AffineCoupling(nn.Module):
         log_scale = torch.log(torch.sigmoid(raw + SCALE_SHIFT) + SCALE_FLOOR)
         return shift, log_scale
 
+    def invert(self, z: torch.Tensor, h: torch.Tensor) -> torch.Tensor:
+        """Latent to data without the log-determinant (the sampling fast path)."""
+        za, zb = z[..., : self.change], z[..., self.change :]
+        y = self.out(self.net(self.inp(torch.cat([zb, h], dim=-1)), self.positions))
+        shift, raw = y.chunk(2, dim=-1)
+        xa = za / (torch.sigmoid(raw + SCALE_SHIFT) + SCALE_FLOOR) - shift
+        return torch.cat([xa, zb], dim=-1)
+
     def forward(self, x: torch.Tensor, h: torch.Tensor):
         """Data to latent."""
         xa, xb = x[..., : self.change], x[..., self.change :]
@@ -215,6 +232,37 @@ class FlowNet(nn.Module):
         self.layers = nn.ModuleList(
             layer for _ in range(config.steps) for layer in FlowStep(channels, cond_dim, frames, config)
         )
+        self.per_step = len(self.layers) // config.steps
+        self._fused: dict[int, tuple[tuple, torch.Tensor, torch.Tensor]] = {}
+
+    def _linear_parts(self, i: int) -> tuple[torch.Tensor, torch.Tensor]:
+        """Step ``i``'s norm and 1x1 convolution reversed as one affine map ``y @ M + c``."""
+        group = self.layers[i * self.per_step : (i + 1) * self.per_step]
+        conv = group[-2]
+        tensors = [t for m in group[:-1] for t in (*m.parameters(), *m.buffers())]
+        key = tuple((t._version, t.data_ptr()) for t in tensors)
+        hit = self._fused.get(i)
+        if hit is not None and hit[0] == key:
+            return hit[1], hit[2]
+        matrix = conv.inverse().T
+        offset = torch.zeros_like(matrix[0])
+        if self.per_step == 3:
+            a, c = group[0].reverse_affine()
+            matrix, offset = matrix * a, c
+        self._fused[i] = (key, matrix.contiguous(), offset)
+        return self._fused[i][1], offset
+
+    @torch.no_grad()
+    def invert(self, z: torch.Tensor, h: torch.Tensor) -> torch.Tensor:
+        """Latent to data without log-determinants, each step's norm and 1x1 convolution fused
+        into one cached affine map (recomputed when any of their weights or statistics change)."""
+        steps = len(self.layers) // self.per_step
+        shape = z.shape
+        for i in reversed(range(steps)):
+            z = self.layers[(i + 1) * self.per_step - 1].invert(z, h)
+            matrix, offset = self._linear_parts(i)
+            z = torch.addmm(offset, z.reshape(-1, shape[-1]), matrix).view(shape)
+        return z
 
     def forward(self, x: torch.Tensor, h: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """``x (B, N, C)`` conditioned on ``h (B, N, d)`` -> ``z`` and ``log|det dz/dx|`` per element."""

@@ -57,10 +57,12 @@ class FlowHead(nn.Module):
         return None
 
     def step(self, latent, history, state, temperature: float, generator=None):
-        """Sample the next ``frames`` frames."""
+        """Sample the next ``frames`` frames (the fast path: no log-likelihood)."""
         with torch.autocast(latent.device.type, enabled=False):
-            frames, _ = self.sample(latent.float(), temperature, generator)
-        return frames, state
+            latent = latent.float()
+            shape = (latent.shape[0], self.frames, self.motion_dim)
+            z = self.base.sample(shape, temperature, generator, latent.device, latent.dtype)
+            return self.flow.invert(z, latent), state
 
     def finish(self, motion: torch.Tensor, state: Any) -> torch.Tensor:
         """Identity."""
