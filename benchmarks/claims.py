@@ -1,18 +1,20 @@
 """The claims benchmark: every model family's small preset, trained with one budget on the synthetic
 choreography, scored with ``dance_core.evaluation`` in the papers' table style.
 
-    .venv/bin/python benchmarks/claims.py [--steps 200] [--readme]
+    .venv/bin/python benchmarks/claims.py [--steps 400] [--readme]
 
-Data: core's ``synthetic-beats`` dataset (seed 0, 6-joint dancer at 20 fps). Training songs are
-songs 0-11 (12 s each; each recipe holds out its own validation fraction of them); test songs are
-songs 12-17 of the same generator, so no test song is seen in training (a split by song). Every
-family gets the same steps, batch size and optimizer (AdamW 1e-3, cosine with 30 warm-up steps,
-gradient clip 1.0) and composes every test song once from the rest pose.
+Data: core's ``synthetic-dance`` dataset (seed 0): synthesized songs with a beat-locked SMPL-24
+dancer at 20 fps, learned in Transflower's motion representation (root ground deltas + exponential
+maps). Training songs are songs 0-11 (12 s each; each recipe holds out its own validation fraction
+of them); test songs are songs 12-17 of the same generator, so no test song is seen in training (a
+split by song). Every family gets the same steps, batch size and optimizer (AdamW 1e-3, cosine with
+30 warm-up steps, gradient clip 1.0), composes every test song once from the rest pose and writes
+BVH, which is read back through the BVH format and forward kinematics like ``dance evaluate`` does.
 
 Rows: ground truth (the test songs' real dances), shuffled music (the same dances paired with
 another test song's beats), untrained (transflower-small after 1 step), then one row per family.
-FID_k, Div_k and FMD compare with the real dances of the *training* songs; the beat metrics use each
-test song's annotated beats. A family whose recipe is not installed, or that fails, is listed with
+FID_k, FID_g, Div_k, Div_g and FMD compare with the real dances of the *training* songs; the beat
+metrics use each test song's annotated beats. A family whose recipe is not installed, or that fails, is listed with
 the reason instead of numbers. The two DanceRevolution rows also compose 60 s versions of the test
 songs for the long-horizon freezing claim. ``--readme`` writes the result into benchmarks/README.md
 between the ``claims`` markers.
@@ -23,7 +25,7 @@ from __future__ import annotations
 import argparse
 import platform
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +35,8 @@ README = ROOT / "benchmarks" / "README.md"
 START, END = "<!-- claims:start -->", "<!-- claims:end -->"
 FPS = 20.0
 TRAIN_SONGS = 12
-METRICS = ["fid-k", "fid-g", "div-k", "div-g", "bas-bailando", "freezing", "fmd", "beat-offset"]
+METRICS = ["fid-k", "fid-g", "div-k", "div-g", "bas-bailando", "freezing", "fmd", "beat-offset", "pfc"]
+DATASET = {"seed": 0, "bpm": (80.0, 140.0), "rate": 22050}
 SAME_BUDGET = [
     "training.optimizer.lr=1.0e-3",
     "training.optimizer.weight_decay=0.0",
@@ -41,10 +44,11 @@ SAME_BUDGET = [
     "training.grad_clip=1.0",
     "training.val_every=100000",
     "training.checkpoint_every=100000",
-    f"data.dataset={{plugin: synthetic-beats, songs: {TRAIN_SONGS}, seconds: 12}}",
+    f"data.dataset={{plugin: synthetic-dance, songs: {TRAIN_SONGS}, seconds: 12}}",
+    "motion={plugin: rotations, rotation: expmap, root: deltas}",
     "data.val_fraction=0.15",
     "compose.samples=1",
-    "compose.formats=[npz]",
+    "compose.formats=[bvh]",
     "compose.seed_motion=rest",
 ]
 SMALL_TRANSFORMER = [  # transflower-small's encoder sizes, for the baseline that shares its encoder
@@ -90,6 +94,7 @@ COLUMNS = [
     ("AUC_f", "AUC_f ↓"),
     ("FMD", "FMD ↓"),
     ("beat_offset_mean", "beat offset (s) ↓"),
+    ("PFC", "PFC ↓"),
 ]
 
 
@@ -105,38 +110,34 @@ class Row:
     long_values: dict | None = None
 
 
-def synthetic_sets(out: Path, songs: int, seconds: float):
-    """Write the test songs (WAV) under ``out``; return (test GT clips, song paths)."""
-    from dance_core.components.configs import SyntheticBeatsConfig
-    from dance_core.components.synthetic import SyntheticBeats
-    from dance_core.components.wav import write_wav
+def dance_clip(index: int, seconds: float):
+    """Song ``index`` of the synthetic-dance generator (its audio, beats and SMPL dancer)."""
+    from dance_core.data.synthetic_dance import make_clip
 
-    data = SyntheticBeats(SyntheticBeatsConfig(songs=TRAIN_SONGS + songs, seconds=seconds), FPS)
-    sources = [data.song(i) for i in range(TRAIN_SONGS, TRAIN_SONGS + songs)]
-    paths = []
-    (out / "music").mkdir(parents=True, exist_ok=True)
-    for s in sources:
-        path = out / "music" / f"{s.name}.wav"
-        write_wav(path, s.audio.samples, s.audio.rate)
-        paths.append(path)
-    return [to_clip(s.name, s.motion.values, np.asarray(s.meta["beats"])) for s in sources], paths
+    return make_clip(index, seconds=seconds, fps=FPS, **DATASET)
 
 
-def to_clip(name: str, values: np.ndarray, beats: np.ndarray | None):
-    """A ``(T, 3 J)`` frame array of joint coordinates as a JointClip at the benchmark's fps."""
+def to_clip(source, beats: bool):
+    """A synthetic-dance source as a JointClip (positions by forward kinematics, metres)."""
     from dance_core.protocols import JointClip
 
-    values = np.asarray(values, dtype=np.float64)
-    return JointClip(name, values.reshape(len(values), -1, 3), FPS, music_beats=beats)
+    motion = source.motion.skeleton_motion
+    music = np.asarray(source.meta["beats"]) if beats else None
+    return JointClip(source.name, motion.positions(), motion.fps, list(motion.skeleton.names), music)
+
+
+def synthetic_sets(out: Path, songs: int, seconds: float):
+    """Write the test songs (WAV, BVH, beats) under ``out``; return (test GT clips, song paths)."""
+    from dance_core.data.synthetic_dance import write_clip
+
+    sources = [dance_clip(i, seconds) for i in range(TRAIN_SONGS, TRAIN_SONGS + songs)]
+    paths = [write_clip(out, s)[0] for s in sources]
+    return [to_clip(s, beats=True) for s in sources], paths
 
 
 def training_clips():
     """The real dances of the training songs (the reference set of the motion metrics)."""
-    from dance_core.components.configs import SyntheticBeatsConfig
-    from dance_core.components.synthetic import SyntheticBeats
-
-    data = SyntheticBeats(SyntheticBeatsConfig(songs=TRAIN_SONGS, seconds=12.0), FPS)
-    return [to_clip(s.name, s.motion.values, None) for s in data.clips()]
+    return [to_clip(dance_clip(i, 12.0), beats=False) for i in range(TRAIN_SONGS)]
 
 
 def score(generated, reference, metrics=METRICS):
@@ -160,16 +161,18 @@ def train_family(recipe_name: str, extra: list[str], steps: int, batch: int, out
 
 
 def generate(recipe, checkpoint, songs, test_clips, out: Path):
-    """Compose every song; returns (clips with the songs' beats, generated frames per second)."""
+    """Compose every song; returns (clips read back from BVH with the songs' beats, frames/s)."""
     from dance_core.compose import compose
-    from dance_core.evaluation.loading import read_motion_file
+    from dance_core.evaluation.loading import load_clips
     from dance_core.registry import get_registry
 
     t0 = time.perf_counter()
-    written = compose(recipe, music=[str(s) for s in songs], checkpoint=str(checkpoint), out_dir=str(out), quiet=True)
+    compose(recipe, music=[str(s) for s in songs], checkpoint=str(checkpoint), out_dir=str(out), quiet=True)
     seconds = time.perf_counter() - t0
+    clips = load_clips(out, get_registry(), suffixes=[".bvh"])
     beats = {c.name: c.music_beats for c in test_clips}
-    clips = [to_clip(p.stem, read_motion_file(Path(p), get_registry()).values, beats[p.stem]) for p in written]
+    for clip in clips:
+        clip.music_beats = beats[clip.name]
     return clips, sum(len(c.positions) for c in clips) / seconds
 
 
@@ -243,7 +246,7 @@ def main() -> None:
     from dance_core.registry import get_registry
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--steps", type=int, default=200, help="training steps for every family (default 200)")
+    parser.add_argument("--steps", type=int, default=400, help="training steps for every family (default 400)")
     parser.add_argument("--batch-size", type=int, default=32)
     parser.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1)")
     parser.add_argument("--test-songs", type=int, default=6)
@@ -262,10 +265,7 @@ def main() -> None:
     long_gt, long_songs = synthetic_sets(out / "long", args.test_songs, args.long_seconds)
     values, skipped = score(test_gt, reference)
     rows = [Row("Ground truth (test songs' real dances)", values)]
-    shuffled = [
-        to_clip(c.name, c.positions.reshape(len(c.positions), -1), test_gt[(k + 1) % len(test_gt)].music_beats)
-        for k, c in enumerate(test_gt)
-    ]
+    shuffled = [replace(c, music_beats=test_gt[(k + 1) % len(test_gt)].music_beats) for k, c in enumerate(test_gt)]
     rows.append(Row("Shuffled music (real dances, another song's beats)", score(shuffled, reference)[0]))
     recipes = set(get_registry().names("recipe"))
     plan = [("Untrained (transflower-small, 1 step)", "transflower-small", [], False, 1)]

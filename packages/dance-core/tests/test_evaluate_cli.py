@@ -169,3 +169,18 @@ def test_evaluate_errors_are_one_line(synthetic_set, tmp_path, capsys):
         ]
     )
     assert rc == 1 and "needs music beats" in capsys.readouterr().err
+
+
+def test_evaluate_reads_only_the_suffixes_asked_for(synthetic_set, tmp_path, capsys):
+    mixed = tmp_path / "mixed"
+    mixed.mkdir()
+    for p in (synthetic_set / "reference").iterdir():
+        (mixed / p.name).write_bytes(p.read_bytes())
+        (mixed / f"{p.stem}.json").write_text("{}")  # metadata next to the dances, as dance synth writes
+    args = ["-q", "evaluate", "--generated", str(mixed), "--reference", str(synthetic_set / "reference")]
+    args += ["--metrics", "fid-k", "--no-plots", "-o", str(tmp_path / "r.json")]
+    assert main(args) == 1 and ".json" in capsys.readouterr().err
+    assert main([*args, "--suffix", ".npz"]) == 0
+    assert json.loads((tmp_path / "r.json").read_text())["values"]["FID_k"] == pytest.approx(0.0, abs=1e-6)
+    assert main([*args, "--suffix", ".xyz"]) == 1
+    assert "no motion format reads .xyz" in capsys.readouterr().err

@@ -33,6 +33,13 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("--up", choices=("y", "z"), help="up axis of the motion files (default: what the format says)")
     p.add_argument("--fps", type=float, help="common frame rate (default: the reference set's)")
+    p.add_argument(
+        "--suffix",
+        dest="suffixes",
+        action="append",
+        metavar=".EXT",
+        help="read only motion files with this suffix (repeatable; default: every registered format's)",
+    )
     p.set_defaults(run=run)
 
 
@@ -59,8 +66,8 @@ def run(args: argparse.Namespace) -> int:
             task = bar.add_task(label, total=None, info="") if bar else None
             return (lambda path: bar.update(task, advance=1, info=path.name)) if bar else None
 
-        reference = loading.load_clips(args.reference, registry, args.up, reader("reference"))
-        generated = loading.load_clips(args.generated, registry, args.up, reader("generated"))
+        reference = loading.load_clips(args.reference, registry, args.up, reader("reference"), args.suffixes)
+        generated = loading.load_clips(args.generated, registry, args.up, reader("generated"), args.suffixes)
         fps = args.fps or loading.common_fps(reference)[0].fps
         reference, generated = loading.common_fps(reference, fps), loading.common_fps(generated, fps)
         notes = loading.attach_music(generated, args.music, registry) if args.music else []

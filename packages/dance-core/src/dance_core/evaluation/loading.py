@@ -20,11 +20,17 @@ UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "dm": 0.1, "in": 0.0254, "inch": 0.0
 _POSITION_CHANNEL = re.compile(r"^(.+)[._]([xyzXYZ])$")
 
 
-def motion_files(folder: Path, registry: Registry) -> list[Path]:
-    """Every file in ``folder`` whose suffix a registered motion format reads, sorted by name."""
+def motion_files(folder: Path, registry: Registry, only: list[str] | None = None) -> list[Path]:
+    """Every file in ``folder`` whose suffix a registered motion format reads (or one of ``only``)."""
     if not folder.is_dir():
         raise DataError(f"{folder}: not a folder of motion files")
     suffixes = {s for e in registry.entries("motion-format") for s in e.info.get("suffixes", ())}
+    if only:
+        wanted = {s.lower() if s.startswith(".") else f".{s.lower()}" for s in only}
+        unknown = sorted(wanted - suffixes)
+        if unknown:
+            raise DataError(f"no motion format reads {', '.join(unknown)} (readable: {', '.join(sorted(suffixes))})")
+        suffixes = wanted
     files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in suffixes)
     if not files:
         raise DataError(f"{folder}: no motion files (readable: {', '.join(sorted(suffixes))})")
@@ -87,15 +93,19 @@ def joint_positions(data: MotionData, where: str) -> tuple[np.ndarray, list[str]
 
 
 def load_clips(
-    folder: str | Path, registry: Registry, up: str | None = None, on_file: Callable[[Path], None] | None = None
+    folder: str | Path,
+    registry: Registry,
+    up: str | None = None,
+    on_file: Callable[[Path], None] | None = None,
+    suffixes: list[str] | None = None,
 ) -> list[JointClip]:
     """Every motion file of a folder as a Y-up ``JointClip`` named by its file stem.
 
     ``up`` overrides the up axis the format reports (``"y"`` or ``"z"``); ``on_file`` is called
-    before each file is read (progress display).
+    before each file is read (progress display); ``suffixes`` restricts the files read.
     """
     clips = []
-    for path in motion_files(Path(folder), registry):
+    for path in motion_files(Path(folder), registry, suffixes):
         if on_file:
             on_file(path)
         data = read_motion_file(path, registry)
