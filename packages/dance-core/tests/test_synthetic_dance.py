@@ -1,5 +1,3 @@
-import json
-
 import numpy as np
 import pytest
 
@@ -78,5 +76,20 @@ def test_written_dataset_has_audio_bvh_beats_and_labels(tmp_path):
     beats = np.loadtxt(tmp_path / "synth-0001.beats")
     np.testing.assert_allclose(beats[:, 0], clip.meta["beats"], atol=1e-4)
     assert list(beats[:4, 1]) == [1, 2, 3, 4]
-    info = json.loads((tmp_path / "synth-0001.json").read_text())
-    assert info["texts"][0]["text"] == clip.texts[0].text and info["bpm"] == pytest.approx(clip.meta["bpm"])
+    first = (tmp_path / "synth-0001.texts").read_text().splitlines()[0].split("\t")
+    assert first[2] == clip.texts[0].text and float(first[1]) == pytest.approx(clip.texts[0].end)
+    sections = (tmp_path / "synth-0001.sections").read_text().splitlines()
+    assert sections[0].startswith("# bpm ") and sections[1].split("\t")[2] == "intro"
+
+
+def test_dance_synth_cli_writes_the_dataset_and_keeps_the_click_track(tmp_path, capsys):
+    from dance_core.cli.main import main
+
+    assert main(["synth", "--out", str(tmp_path / "d"), "--songs", "2", "--seconds", "3", "--seed", "5",
+                 "--fps", "20", "--rate", "8000"]) == 0
+    assert sorted(p.name for p in (tmp_path / "d").iterdir())[:5] == [
+        "synth-0000.beats", "synth-0000.bvh", "synth-0000.sections", "synth-0000.texts", "synth-0000.wav"]
+    assert BvhFormat().read_motion(tmp_path / "d" / "synth-0001.bvh").n_frames == 60
+    assert main(["synth", str(tmp_path / "click.wav"), "--seconds", "1"]) == 0
+    assert (tmp_path / "click.wav").stat().st_size > 1000
+    assert main(["synth"]) == 1 and "--out DIR" in capsys.readouterr().err

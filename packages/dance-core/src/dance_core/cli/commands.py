@@ -129,10 +129,17 @@ def synth(args: Namespace) -> int:
     from dance_core.components.wav import write_wav
     from dance_core.errors import DanceError
 
-    if not (20 <= args.bpm <= 400) or not (0.5 <= args.seconds <= 3600) or args.rate < 4000:
+    if args.out_dir is not None:
+        from dance_core.data.synthetic_dance import synth_command
+
+        return synth_command(args)
+    if args.out is None:
+        raise DanceError("synth: give a WAV file to write, or --out DIR for a synthetic dance dataset")
+    seconds = 20.0 if args.seconds is None else args.seconds
+    if not (20 <= args.bpm <= 400) or not (0.5 <= seconds <= 3600) or args.rate < 4000:
         raise DanceError("synth: need 20 <= --bpm <= 400, 0.5 <= --seconds <= 3600, --rate >= 4000")
-    beats = np.arange(0.0, args.seconds, 60.0 / args.bpm)
-    audio = click_track(beats, args.seconds, args.rate, np.random.default_rng(args.seed))
+    beats = np.arange(0.0, seconds, 60.0 / args.bpm)
+    audio = click_track(beats, seconds, args.rate, np.random.default_rng(args.seed))
     write_wav(args.out, audio, args.rate)
     print(args.out)
     return 0

@@ -82,6 +82,12 @@ def register_datasets(register):
              "click-track music with known beats and a beat-locked dancer")
     register("synthetic-dance", dc.SyntheticDanceConfig, "dance_core.data.synthetic_dance:build",
              "synthesized songs (drums, bass, chords) with a beat-locked SMPL dancer and move labels")
+    register("folder", dc.FolderDatasetConfig, "dance_core.data.folders:build_folder",
+             "a folder of name.<audio> + name.<motion> pairs (optional name.texts), cached features")
+    register("aist", dc.AistDatasetConfig, "dance_core.data.folders:build_aist",
+             "AIST++ layout: motions/*.pkl (SMPL, 60 fps), wav/, splits/; music id from the name")
+    register("humanml3d", dc.HumanMLConfig, "dance_core.data.folders:build_humanml",
+             "HumanML3D new_joints (T, 22, 3) at 20 fps with captions (no music)")
 
 
 @hookimpl

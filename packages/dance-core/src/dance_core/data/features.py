@@ -51,6 +51,9 @@ class FeatureStack:
             name: [(spec.plugin, spec.build()) for spec in specs]
             for name, specs in recipe.features.items()
         }
+        #: the extractors and their options, per stream (what feature caches are keyed by)
+        self.signature = {name: [{"plugin": s.plugin, **s.options()} for s in specs]
+                          for name, specs in recipe.features.items()}
 
     def dims(self) -> dict[str, int]:
         """Width of every stream."""

@@ -104,9 +104,41 @@ def to_clip(source: ClipSource, stack: FeatureStack, registry: Registry) -> Clip
         from dance_core.motion.resample import resample_array
 
         values = resample_array(np.asarray(values, np.float64), motion.fps, stack.fps).astype(np.float32)
+    cache_dir = source.meta.get("feature_cache")
+    if cache_dir and source.audio_path is not None:
+        streams = cached_features(source, stack, registry, cache_dir)
+        if streams:
+            check_durations(source, len(values), len(next(iter(streams.values()))), stack.fps)
+        n = min(len(values), *(len(v) for v in streams.values())) if streams else len(values)
+        return Clip(source.name, values[:n], {k: v[:n] for k, v in streams.items()})
     audio = source.audio
     if audio is None and source.audio_path is not None:
         audio = load_audio(source.audio_path, registry)
+    if audio is not None:
+        check_durations(source, len(values), audio.n_frames(stack.fps), stack.fps)
     n = len(values) if audio is None else min(len(values), audio.n_frames(stack.fps))
     streams = stack.extract(n, audio, source.texts)
     return Clip(source.name, values[:n], streams)
+
+
+def check_durations(source: ClipSource, motion_frames: int, audio_frames: int, fps: float) -> None:
+    """A dataset's ``meta["max_offset"]`` (seconds) bounds how much motion and music lengths may differ."""
+    limit = source.meta.get("max_offset")
+    if limit is not None and abs(motion_frames - audio_frames) / fps > limit:
+        raise DataError(f"{source.audio_path or source.name}: music lasts {audio_frames / fps:.2f} s but its "
+                        f"motion {motion_frames / fps:.2f} s (more than {limit:g} s apart)")
+
+
+def cached_features(source: ClipSource, stack: FeatureStack, registry: Registry, folder: str) -> dict[str, Any]:
+    """Full-length feature streams of a source's audio file, from (or into) the feature cache."""
+    from dance_core.data.cache import FeatureCache
+
+    cache = FeatureCache(folder)
+    texts = [[t.text, t.start, t.end] for t in source.texts]
+    key = cache.key(source.audio_path, {"features": stack.signature, "fps": stack.fps, "texts": texts})
+    streams = cache.get(key)
+    if streams is None:
+        audio = load_audio(source.audio_path, registry)
+        streams = stack.extract(audio.n_frames(stack.fps), audio, source.texts)
+        cache.put(key, streams)
+    return streams

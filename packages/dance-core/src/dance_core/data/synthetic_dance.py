@@ -6,7 +6,6 @@ moves and style from ``(seed, i, k)``, so the same music comes with several danc
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -61,8 +60,8 @@ def build(config: Any, *, fps: float, **_: Any) -> SyntheticDance:
 
 
 def write_clip(out: Path, clip: ClipSource) -> list[Path]:
-    """Write ``name.wav``, ``name.bvh``, ``name.beats`` (time and beat in bar) and ``name.json``
-    (text spans, sections, tempo) into ``out``."""
+    """Write ``name.wav``, ``name.bvh``, ``name.beats`` (time, beat in bar), ``name.texts`` (start, end,
+    sentence) and ``name.sections`` (start, end, section; tempo and style in a comment) into ``out``."""
     from dance_core.atomic import write_text
     from dance_core.components.wav import write_wav
     from dance_core.formats.bvh import BvhFormat
@@ -73,10 +72,11 @@ def write_clip(out: Path, clip: ClipSource) -> list[Path]:
     BvhFormat(precision=5).write_motion(clip.motion.skeleton_motion, base.with_suffix(".bvh"))
     beats = clip.meta["beats"]
     write_text(base.with_suffix(".beats"), "".join(f"{b:.4f}\t{i % 4 + 1}\n" for i, b in enumerate(beats)))
-    info = {"bpm": clip.meta["bpm"], "style": clip.meta["style"], "sections": clip.meta["sections"],
-            "texts": [{"text": t.text, "start": t.start, "end": t.end} for t in clip.texts]}
-    write_text(base.with_suffix(".json"), json.dumps(info, indent=1) + "\n")
-    return [base.with_suffix(s) for s in (".wav", ".bvh", ".beats", ".json")]
+    write_text(base.with_suffix(".texts"), "".join(f"{t.start:.4f}\t{t.end:.4f}\t{t.text}\n" for t in clip.texts))
+    head = f"# bpm {clip.meta['bpm']:.4f} style {clip.meta['style']}\n"
+    rows = "".join(f"{a:.4f}\t{b:.4f}\t{n}\n" for n, a, b in clip.meta["sections"])
+    write_text(base.with_suffix(".sections"), head + rows)
+    return [base.with_suffix(s) for s in (".wav", ".bvh", ".beats", ".texts", ".sections")]
 
 
 def _write_one(args: tuple) -> str:
@@ -99,3 +99,16 @@ def write_dataset(out: str | Path, songs: int, seed: int = 0, seconds: float = 6
 
     with ProcessPoolExecutor(jobs) as pool:
         return list(pool.map(_write_one, work, chunksize=4))
+
+
+def synth_command(args: Any) -> int:
+    """``dance synth --out DIR --songs N --seed S``: write a dataset and print where it went."""
+    from dance_core.errors import DanceError
+
+    seconds = 60.0 if args.seconds is None else args.seconds
+    if not (1 <= args.songs <= 100_000) or not (2.0 <= seconds <= 3600) or args.fps <= 0 or args.rate < 8000:
+        raise DanceError("synth: need 1 <= --songs, 2 <= --seconds <= 3600, --fps > 0, --rate >= 8000")
+    names = write_dataset(args.out_dir, args.songs, args.seed, seconds, args.fps, rate=args.rate,
+                          jobs=max(1, args.jobs))
+    print(f"{args.out_dir}: {len(names)} songs ({names[0]} ... {names[-1]}): .wav .bvh .beats .texts .sections")
+    return 0
