@@ -45,3 +45,5 @@ def register_recipes(register):
              "DanceRevolution at the paper's sizes (local attention k=100, 3-layer LSTM, linear curriculum)")
     register("dancerevolution-small", None, str(RECIPES / "dancerevolution-small.yaml"),
              "DanceRevolution shrunk for CPU; learns the synthetic beats in about a minute")
+    register("dancerevolution-flow", None, str(RECIPES / "dancerevolution-flow.yaml"),
+             "cross-breed: local-attention encoder (dance-rnn) + flow head (dance-flow)")
