@@ -35,10 +35,12 @@ def build_model(recipe: Recipe, motion_dim: int, stream_dims: Mapping[str, int])
         window=encoder.window,
     )
     want = getattr(head, "latent_tokens", None)
-    if not encoder.window.song_level and want is not None and want != encoder.latent_tokens:
+    # a song-level encoder gives one token per frame, so a head needing K tokens per step gets its `frames`
+    gives = head.frames if encoder.window.song_level else encoder.latent_tokens
+    if want is not None and want != gives:
         raise RecipeError(
             f"{recipe._origin}: model.head: {recipe.model.head.plugin} needs {want} latent tokens "
-            f"but {recipe.model.encoder.plugin} gives {encoder.latent_tokens}"
+            f"but {recipe.model.encoder.plugin} gives {gives}"
         )
     return ComposedModel(conditioners, encoder, head)
 
@@ -55,6 +57,19 @@ def _edge_pad(x: torch.Tensor, before: int, after: int) -> torch.Tensor:
     if before == 0 and after == 0:
         return x
     return F.pad(x.transpose(1, 2), (before, after), mode="replicate").transpose(1, 2)
+
+
+def _aligned_windows(
+    latent: torch.Tensor, motion: torch.Tensor, history: int, frames: int
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Consecutive ``frames``-frame windows of a song-level segment after its first ``history``
+    frames, folded into the batch: latent ``(B*W, frames, d)``, target and history motion."""
+    starts = range(history, motion.shape[1] - frames + 1, frames)
+
+    def fold(x: torch.Tensor, before: int, length: int) -> torch.Tensor:
+        return torch.stack([x[:, s - before : s - before + length] for s in starts], 1).flatten(0, 1)
+
+    return fold(latent, 0, frames), fold(motion, 0, frames), fold(motion, history, history)
 
 
 class ComposedModel(nn.Module):
@@ -83,6 +98,8 @@ class ComposedModel(nn.Module):
                 raise RecipeError("data.segment_frames: required by a song-level encoder")
             if song_segment <= head.history_frames:
                 raise RecipeError("data.segment_frames: must exceed the head's history frames")
+            if head.latent_tokens is not None and song_segment < head.history_frames + head.frames:
+                raise RecipeError("data.segment_frames: must hold the head's history and frames")
             return song_segment
         return self._lead() + w.motion_past + max(head.frames, w.cond_future)
 
@@ -95,7 +112,9 @@ class ComposedModel(nn.Module):
         if w.song_level:
             h = head.history_frames
             latent = self.encoder(None, cond)
-            return head.loss(latent[:, h:], motion[:, h:], motion[:, :h], ctx)
+            if head.latent_tokens is None:  # a sequence head: the whole aligned segment at once
+                return head.loss(latent[:, h:], motion[:, h:], motion[:, :h], ctx)
+            return head.loss(*_aligned_windows(latent, motion, h, head.frames), ctx)
         t = self._lead() + w.motion_past
         window = {n: x[:, t - w.cond_past : t + w.cond_future] for n, x in cond.items()}
         latent = self.encoder(motion[:, t - w.motion_past : t], window)
