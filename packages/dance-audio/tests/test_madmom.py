@@ -62,6 +62,14 @@ def test_torch_port_equals_madmom(sample_44k, madmom_activations):
     assert madmom_activations.max() > 0.5  # real beats in real music, not a trivial match
 
 
+def test_torch_port_carries_state_across_chunks(sample_44k, madmom_activations, monkeypatch):
+    import dance_audio.downbeat_torch as port
+
+    monkeypatch.setattr(port, "CHUNK", 64)  # 281 frames: 5 chunks per layer and direction
+    ours = port.downbeat_activations(sample_44k)
+    assert np.abs(ours - madmom_activations).max() < 1e-4
+
+
 def test_madmom_backend_and_fps_resampling(sample, madmom_activations):
     from dance_audio.downbeat import DownbeatFeatures, resample_activation
 

@@ -20,55 +20,86 @@ from .madmom_weights import NetworkWeights, load_downbeat_ensemble
 _lock = threading.Lock()
 _model: DownbeatEnsemble | None = None
 _scripted = None
+CHUNK = 2048  # steps whose input projections are computed at once
 
 
 class DownbeatEnsemble(torch.nn.Module):
-    """The BLSTM ensemble; ``forward`` maps ``(T, 314)`` features to ``(T, 2)`` activations."""
+    """The BLSTM ensemble; ``forward`` maps ``(T, 314)`` features to ``(T, 2)`` activations.
+
+    Chains are ordered forward chains of networks 0..N-1, then their backward chains. Input
+    projections are computed ``CHUNK`` steps at a time, so a 20-minute song needs no
+    ``(16, T, 314)`` copy of its input.
+    """
 
     def __init__(self, nets: list[NetworkWeights]):
         super().__init__()
         self.n_nets = len(nets)
-        for k in range(len(nets[0].layers)):
-            dirs = [d for net in nets for d in net.layers[k]]  # net0 fwd, net0 bwd, net1 fwd, ...
-            self.register_buffer(f"w_in{k}", torch.from_numpy(np.stack([d.w_in for d in dirs])))
-            self.register_buffer(f"w_rec{k}", torch.from_numpy(np.stack([d.w_rec for d in dirs])))
-            self.register_buffer(f"bias{k}", torch.from_numpy(np.stack([d.bias for d in dirs]))[:, None, :])
-            self.register_buffer(f"peep{k}", torch.from_numpy(np.stack([d.peep for d in dirs])))
         self.n_layers = len(nets[0].layers)
-        self.register_buffer("out_w", torch.from_numpy(np.stack([n.out_w for n in nets])))
-        self.register_buffer("out_b", torch.from_numpy(np.stack([n.out_b for n in nets]))[:, None, :])
+
+        def stack(arrays):
+            return torch.from_numpy(np.stack(arrays))
+
+        for k in range(self.n_layers):
+            fwd = [net.layers[k][0] for net in nets]
+            bwd = [net.layers[k][1] for net in nets]
+            self.register_buffer(f"w_in_f{k}", stack([d.w_in for d in fwd]))
+            self.register_buffer(f"w_in_b{k}", stack([d.w_in for d in bwd]))
+            self.register_buffer(f"bias_f{k}", stack([d.bias for d in fwd])[:, None, :])
+            self.register_buffer(f"bias_b{k}", stack([d.bias for d in bwd])[:, None, :])
+            self.register_buffer(f"w_rec{k}", stack([d.w_rec for d in fwd + bwd]))
+            self.register_buffer(f"peep{k}", stack([d.peep for d in fwd + bwd]))
+        self.register_buffer("out_w", stack([n.out_w for n in nets]))
+        self.register_buffer("out_b", stack([n.out_b for n in nets])[:, None, :])
+
+    def _projection(self, x: torch.Tensor, k: int, lo: int, hi: int) -> torch.Tensor:
+        """Input projections of steps ``lo:hi`` of every chain, ``(2N, hi - lo, 4H)``; ``x`` is ``(N, T, in)``."""
+        steps = x.shape[1]
+        fwd = torch.baddbmm(getattr(self, f"bias_f{k}"), x[:, lo:hi], getattr(self, f"w_in_f{k}"))
+        back = x[:, steps - hi : steps - lo].flip(1)  # backward chains read the song from its end
+        bwd = torch.baddbmm(getattr(self, f"bias_b{k}"), back, getattr(self, f"w_in_b{k}"))
+        return torch.cat([fwd, bwd], dim=0)
 
     def _layer(self, x: torch.Tensor, k: int) -> torch.Tensor:
-        """One BLSTM layer for every chain: ``x`` is ``(2N, T, in)`` with backward chains time-reversed."""
-        pre = torch.baddbmm(getattr(self, f"bias{k}"), x, getattr(self, f"w_in{k}"))  # (2N, T, 4H)
-        threads = torch.get_num_threads()
-        torch.set_num_threads(1)  # one step's tensors are tiny: threads only add synchronisation
-        try:  # the plain TorchScript interpreter: no profiling runs, and faster on this tiny loop
-            with torch.jit.optimized_execution(False):
-                return _recurrence()(pre, getattr(self, f"w_rec{k}"), getattr(self, f"peep{k}"))
-        finally:
-            torch.set_num_threads(threads)
+        """One BLSTM layer of every network: ``(N, T, in)`` to ``(N, T, 2H)`` (forward | backward)."""
+        n, steps = self.n_nets, x.shape[1]
+        w_rec, peep = getattr(self, f"w_rec{k}"), getattr(self, f"peep{k}")
+        hidden = w_rec.shape[1]
+        h = x.new_zeros(2 * n, 1, hidden)
+        c = x.new_zeros(2 * n, hidden)
+        outs = []
+        for lo in range(0, steps, CHUNK):
+            pre = self._projection(x, k, lo, min(lo + CHUNK, steps))
+            threads = torch.get_num_threads()
+            torch.set_num_threads(1)  # one step's tensors are tiny: threads only add synchronisation
+            try:  # the plain TorchScript interpreter: no profiling runs, and faster on this tiny loop
+                with torch.jit.optimized_execution(False):
+                    out, h, c = _recurrence()(pre, w_rec, peep, h, c)
+            finally:
+                torch.set_num_threads(threads)
+            outs.append(out)
+        y = torch.cat(outs, dim=1)  # (2N, T, H), backward chains in reversed time
+        return torch.cat([y[:n], y[n:].flip(1)], dim=2)
 
     @torch.no_grad()
     def forward(self, feats: torch.Tensor) -> torch.Tensor:
         """Ensemble-mean (beat, downbeat) probabilities, ``(T, 2)``."""
-        n = self.n_nets
-        x = feats.unsqueeze(0).expand(n, -1, -1)
+        x = feats.unsqueeze(0).expand(self.n_nets, -1, -1)
         for k in range(self.n_layers):
-            chains = torch.stack([x, x.flip(1)], dim=1).reshape(2 * n, x.shape[1], x.shape[2])
-            y = self._layer(chains, k).reshape(n, 2, x.shape[1], -1)
-            x = torch.cat([y[:, 0], y[:, 1].flip(1)], dim=2)  # (N, T, 2H): forward | backward
+            x = self._layer(x, k)
         probs = torch.softmax(torch.baddbmm(self.out_b, x, self.out_w), dim=2)
         return probs.mean(dim=0)[:, 1:]
 
 
-def _peephole_lstm(pre: torch.Tensor, w_rec: torch.Tensor, peep: torch.Tensor) -> torch.Tensor:
-    """Run peephole LSTM chains over time: gates i, f see the previous cell state, o the new one."""
+def _peephole_lstm(
+    pre: torch.Tensor, w_rec: torch.Tensor, peep: torch.Tensor, h: torch.Tensor, c: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Run peephole LSTM chains over ``pre``'s steps from state ``(h, c)``; returns outputs and the end state.
+
+    Gates i and f see the previous cell state, gate o the new one (madmom's LSTMLayer).
+    """
     chains, steps = pre.shape[0], pre.shape[1]
     hidden = w_rec.shape[1]
     p_i, p_f, p_o = peep[:, 0], peep[:, 1], peep[:, 2]
-    h = pre.new_zeros(chains, 1, hidden)
-    c = pre.new_zeros(chains, hidden)
     out = pre.new_empty(chains, steps, hidden)
     for t in range(steps):
         g = torch.baddbmm(pre[:, t : t + 1], h, w_rec).squeeze(1)
@@ -79,7 +110,7 @@ def _peephole_lstm(pre: torch.Tensor, w_rec: torch.Tensor, peep: torch.Tensor) -
         h_t = torch.tanh(c) * torch.sigmoid(torch.addcmul(go, c, p_o))
         out[:, t] = h_t
         h = h_t.unsqueeze(1)
-    return out
+    return out, h, c
 
 
 def _recurrence():
