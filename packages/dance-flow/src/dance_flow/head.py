@@ -72,7 +72,9 @@ class FlowHead(nn.Module):
 def build(
     config, *, motion_dim: int, latent_dim: int, latent_tokens: int | None = None, window=None, **_: Any
 ) -> FlowHead:
-    """Build the ``flow`` head (a song-level encoder gives it one latent token per frame)."""
-    if latent_tokens is None and not (window is not None and window.song_level):
-        raise ValueError("the flow head needs a windowed encoder that gives latent tokens")
+    """Build the ``flow`` head: one latent token per predicted frame, from a windowed encoder's
+    ``latent_tokens`` or a song-level encoder's per-frame latent."""
+    song_level = window is not None and window.song_level
+    if latent_tokens is None and not song_level:
+        raise ValueError("the flow head needs an encoder that gives latent tokens (or a per-frame latent)")
     return FlowHead(config, motion_dim, latent_dim)

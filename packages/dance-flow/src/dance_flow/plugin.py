@@ -48,3 +48,9 @@ def register_recipes(register):
         ("transflower-small", "small Transflower that trains on 2 CPU cores in minutes; the bundled model"),
     ):
         register(name, None, str(RECIPES / f"{name}.yaml"), description)
+    register(
+        "default",
+        None,
+        str(RECIPES / "transflower-small.yaml"),
+        "the bundled model: transflower-small with its trained weights (dance compose default)",
+    )
