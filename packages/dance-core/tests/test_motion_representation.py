@@ -120,3 +120,17 @@ def test_skeletal_dataset_without_a_representation_is_a_recipe_error(tmp_path):
     recipe = load_recipe("core-dance", [*TINY, "motion=null"])
     with pytest.raises(RecipeError, match="motion: dataset 'synthetic-dance' yields skeletal motion"):
         train(recipe, out=str(tmp_path), quiet=True)
+
+
+def test_training_learns_and_mirroring_doubles_the_clips(run):
+    from dance_core.data.prepare import dataset_sources
+
+    recipe, result = run
+    assert result.last_loss < 0.8 * result.first_loss
+    sources = dataset_sources(load_recipe("core-dance", [*TINY, "data.dataset.songs=2", "data.dataset.seconds=4"]))
+    assert [s.name for s in sources] == ["synth-0000", "synth-0000-mirrored", "synth-0001", "synth-0001-mirrored"]
+    a, b = sources[0].motion.skeleton_motion, sources[1].motion.skeleton_motion
+    pairs = a.skeleton.mirror_pairs()
+    np.testing.assert_allclose(b.root, a.root * [-1, 1, 1])
+    assert np.abs(np.abs((b.rotations[:, pairs] * a.rotations * [1, -1, -1, 1]).sum(-1)) - 1).max() < 1e-9
+    np.testing.assert_allclose(sources[1].motion.values[:, 2], sources[0].motion.values[:, 2])  # same height
