@@ -100,7 +100,7 @@ def test_trainer_hands_the_schedule_value_to_the_head(tmp_path):
 
     recipe = load_recipe(
         "dancerevolution-small",
-        ["data.dataset.songs=3", "data.dataset.seconds=4", "data.segment_frames=20", "training.batch_size=4",
+        ["features.music=[{plugin: energy}]", "data.dataset.songs=3", "data.dataset.seconds=4", "data.segment_frames=20", "training.batch_size=4",
          "training.schedules.auto_condition={plugin: auto-condition-linear, rate: 1.0, offset: 0}"],
     )
     trainer = Trainer(recipe, tmp_path, quiet=True)

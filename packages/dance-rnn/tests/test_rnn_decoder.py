@@ -84,3 +84,5 @@ def test_paper_recipe_has_the_paper_sizes():
     assert recipe.training.schedules["auto_condition"].plugin == "auto-condition-linear"
     assert recipe.training.schedules["auto_condition"].config.rate == 0.01
     assert recipe.data.segment_frames == 900 and recipe.fps == 15 and recipe.training.grad_clip is None
+    assert [f.plugin for f in recipe.features["music"]] == ["librosa-438"]
+    assert recipe.motion.plugin == "positions" and recipe.motion.config.dims == 2
