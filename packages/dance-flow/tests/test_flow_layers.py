@@ -100,7 +100,7 @@ def test_coupling_starts_as_the_identity():
 def test_actnorm_initializes_to_zero_mean_unit_variance_on_the_first_batch():
     torch.manual_seed(4)
     norm = ActNorm(C)
-    x = torch.randn(64, N, C) * torch.tensor([1.0, 3.0, 0.5, 10.0, 2.0]) + torch.tensor([5.0, -2.0, 0.0, 1.0, 7.0])
+    x = torch.randn(64, N, C) * torch.tensor([1.0, 3.0, 0.8, 10.0, 2.0]) + torch.tensor([5.0, -2.0, 0.0, 1.0, 7.0])
     norm.train()
     z, _ = norm(x)
     flat = z.reshape(-1, C)
@@ -110,6 +110,16 @@ def test_actnorm_initializes_to_zero_mean_unit_variance_on_the_first_batch():
     before = norm.logs.detach().clone()
     norm(x * 5)  # a second batch does not re-initialize
     assert torch.equal(norm.logs.detach(), before)
+
+
+def test_actnorm_does_not_amplify_a_channel_that_is_still_in_the_first_batch():
+    norm = ActNorm(C)
+    x = torch.randn(64, N, C)
+    x[..., 2] = 0.3  # still in this batch
+    norm.train()
+    norm(x)
+    assert norm.logs[2].item() == pytest.approx(-math.log(0.5))
+    assert norm.logs[0].item() == pytest.approx(-math.log(x[..., 0].std(unbiased=False).item()), abs=1e-5)
 
 
 def test_actnorm_init_survives_a_state_dict_round_trip():

@@ -98,7 +98,11 @@ class CouplingConfig(ComponentConfig):
 
 
 class FlowHeadConfig(ComponentConfig):
-    """Glow-style flow over ``frames`` x D: ``steps`` x (norm -> LU 1x1 conv -> affine coupling)."""
+    """Glow-style flow over ``frames`` x D: ``steps`` x (norm -> LU 1x1 conv -> affine coupling).
+
+    ``noise`` jitters training targets so that constant or nearly constant motion channels (joints
+    that never move) have a bounded density instead of pulling the likelihood to infinity.
+    """
 
     frames: PositiveInt = 3
     keep: PositiveInt = 1
@@ -108,6 +112,7 @@ class FlowHeadConfig(ComponentConfig):
     coupling: CouplingConfig = Field(default_factory=CouplingConfig)
     base: Literal["gaussian", "student-t"] = "gaussian"
     df: PositiveFloat = 50.0
+    noise: float = Field(0.01, ge=0.0, description="std of Gaussian noise added to training targets (normalized units)")
 
     @model_validator(mode="after")
     def _keep(self):

@@ -18,9 +18,14 @@ SCALE_SHIFT = 2.0
 SCALE_FLOOR = 1.0 - 1.0 / (1.0 + math.exp(-SCALE_SHIFT))  # makes the scale exactly 1 at zero
 
 
+ACTNORM_MIN_STD = 0.5
+
+
 class ActNorm(nn.Module):
     """Per-channel affine ``z = (x + bias) * exp(logs)``, initialized from the first training batch
-    so that its output has zero mean and unit variance (Glow)."""
+    so that its output has zero mean and unit variance (Glow). Inputs are standardized, so a batch
+    standard deviation below ``ACTNORM_MIN_STD`` means a channel that happens to be still in this
+    batch: it is not amplified beyond ``1 / ACTNORM_MIN_STD``, or its later batches would explode."""
 
     def __init__(self, channels: int):
         super().__init__()
@@ -33,7 +38,7 @@ class ActNorm(nn.Module):
         """Data-dependent initialization from a batch ``(B, N, C)``."""
         flat = x.reshape(-1, x.shape[-1])
         self.bias.copy_(-flat.mean(0))
-        self.logs.copy_(-torch.log(flat.std(0, unbiased=False) + 1e-6))
+        self.logs.copy_(-torch.log(flat.std(0, unbiased=False).clamp_min(ACTNORM_MIN_STD)))
         self.initialized.fill_(True)
 
     def forward(self, x: torch.Tensor, h: torch.Tensor | None = None):

@@ -24,6 +24,7 @@ class FlowHead(nn.Module):
         self.keep = config.keep
         self.latent_tokens = config.frames
         self.motion_dim = motion_dim
+        self.noise = config.noise
         self.flow = FlowNet(motion_dim, latent_dim, config.frames, config)
         self.base = base_distribution(config)
 
@@ -45,9 +46,13 @@ class FlowHead(nn.Module):
     def loss(
         self, latent: torch.Tensor, target: torch.Tensor, history: torch.Tensor, ctx: TrainContext
     ) -> dict[str, torch.Tensor]:
-        """Negative log-likelihood in bits per dimension (and nats per frame, for logs)."""
+        """Negative log-likelihood in bits per dimension (and nats per frame, for logs); in training
+        the targets get Gaussian noise of std ``noise``."""
+        target = target.float()
+        if self.training and self.noise > 0:
+            target = target + self.noise * torch.randn_like(target)
         with torch.autocast(latent.device.type, enabled=False):
-            log_p = self.log_prob(target.float(), latent.float())
+            log_p = self.log_prob(target, latent.float())
         nll = -log_p.mean()
         bits = nll / (self.frames * self.motion_dim * math.log(2.0))
         return {"loss": bits, "nats_per_frame": (nll / self.frames).detach()}
