@@ -109,7 +109,7 @@ def compose(
     model, ckpt, stack = load_model(recipe, checkpoint, device)
     songs = [load_song(p, stack, ckpt, c.seconds, registry) for p in songs_in]
     start = model.start_frames()
-    seed = torch.from_numpy(seed_motion(c.seed_motion, ckpt, start, registry))
+    seed = torch.from_numpy(seed_motion(_beside_recipe(c.seed_motion, recipe), ckpt, start, registry))
     total = max(s.n_frames for s in songs)
     streams = {
         name: torch.from_numpy(
@@ -147,6 +147,14 @@ def compose(
                 fmt.write(data, str(path))
                 written.append(path)
     return written
+
+
+def _beside_recipe(spec: str | None, recipe: Recipe) -> str | None:
+    """A seed file as given when it exists, else relative to the recipe (recipes ship seeds)."""
+    if spec in (None, "rest") or Path(spec).exists():
+        return spec
+    beside = recipe.resolve_path(spec)
+    return beside if Path(beside).exists() else spec
 
 
 def _pad_to(values: np.ndarray, n: int) -> np.ndarray:
