@@ -104,7 +104,9 @@ class ComposeSpec(Strict):
 
     music: list[str] = Field(default_factory=list, description="songs (relative to the recipe)")
     checkpoint: str | None = None
-    seed_motion: str | None = Field(None, description="a motion file, or 'rest'")
+    seed_motion: str | None = Field(
+        None, description="a motion file (as given, else relative to the recipe), or 'rest'"
+    )
     seconds: PositiveFloat | None = Field(None, description="length; default the whole song")
     temperature: float = Field(1.0, ge=0.0)
     samples: PositiveInt = 1
