@@ -149,5 +149,8 @@ def attach_music(clips: list[JointClip], music_dir: str | Path, registry: Regist
             methods[method] += 1
         clip.music_beats = cache[song]
         clip.meta["music"] = str(song)
+        audio = song if song.suffix != ".beats" else M.find_audio(folder, song.stem, audio_suffixes)
+        if audio is not None:
+            clip.meta["audio"] = str(audio)
     notes += [f"music beats from {method} ({n} song(s))" for method, n in methods.items()]
     return notes

@@ -7,7 +7,7 @@ For a song ``NAME`` in the music folder, the first source that exists wins:
 2. The audio file ``NAME.<suffix>`` read by a registered audio reader, with beats from
    dance-audio's beat tracker when that plugin provides one (``dance_audio.beats.track_beats``).
 3. Otherwise a documented fallback: peaks of the spectral-flux onset strength of core's
-   ``energy`` features, at least ``MIN_GAP`` apart and above ``mean + 0.5 std`` of the envelope.
+   ``energy`` features (log-compressed, above its 1 s moving average), at least ``MIN_GAP`` apart.
    These are onsets, not a tracked beat grid: on music with a steady pulse (the synthetic click
    tracks) they coincide with the beats; on real music they are a proxy, reported as such.
 """
@@ -19,6 +19,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 
 from dance_core.errors import DataError
 from dance_core.media import Audio
@@ -53,18 +54,33 @@ def onset_envelope(audio: Audio, fps: float = ONSET_FPS) -> np.ndarray:
     n = audio.n_frames(fps)
     envelope = extractor.extract(FeatureInputs(n, audio), fps)[:, -1].astype(np.float64)
     edge = int(np.ceil(n_fft / 2 / audio.rate * fps)) + 1
-    envelope[:edge] = 0.0  # the flux of the zero padding before the song is not an onset
+    envelope[:edge] = np.median(envelope)  # the flux of the zero padding before the song is not an onset
     return envelope
 
 
-def onset_peaks(envelope: np.ndarray, fps: float, min_gap: float = MIN_GAP) -> np.ndarray:
-    """Times of strong onset peaks, strongest first kept, none closer than ``min_gap`` seconds."""
+def novelty(envelope: np.ndarray, fps: float) -> np.ndarray:
+    """Log-compressed onset strength above its 1 s moving average (half-wave rectified).
+
+    The compression keeps a few loud events (a crash, a section change) from hiding every other
+    onset, and the moving average removes slow loudness changes.
+    """
     x = np.asarray(envelope, dtype=np.float64)
+    positive = x[x > 0]
+    if len(positive) == 0:
+        return np.zeros_like(x)
+    x = np.log1p(x / np.median(positive))
+    return np.maximum(x - uniform_filter1d(x, max(1, int(round(fps))), mode="nearest"), 0.0)
+
+
+def onset_peaks(envelope: np.ndarray, fps: float, min_gap: float = MIN_GAP) -> np.ndarray:
+    """Times of strong onsets: local maxima of the novelty above its standard deviation,
+    strongest first, none closer than ``min_gap`` seconds to a stronger one."""
+    x = novelty(envelope, fps)
     if len(x) < 3 or np.ptp(x) <= 0:
         return np.zeros(0)
     is_peak = np.zeros(len(x), dtype=bool)
     is_peak[1:-1] = (x[1:-1] >= x[:-2]) & (x[1:-1] > x[2:])
-    candidates = np.flatnonzero(is_peak & (x > x.mean() + 0.5 * x.std()))
+    candidates = np.flatnonzero(is_peak & (x > x.std()))
     kept: list[int] = []
     gap = min_gap * fps
     for i in candidates[np.argsort(-x[candidates], kind="stable")]:
@@ -97,15 +113,23 @@ def song_stem(clip_name: str) -> list[str]:
     return [clip_name] if stripped == clip_name else [clip_name, stripped]
 
 
+def find_audio(music_dir: Path, stem: str, audio_suffixes: set[str]) -> Path | None:
+    """The audio file ``stem.<suffix>`` in ``music_dir`` that a registered reader reads, if any."""
+    for path in sorted(music_dir.glob(f"{glob_escape(stem)}.*")):
+        if path.suffix.lower() in audio_suffixes:
+            return path
+    return None
+
+
 def find_song(music_dir: Path, clip_name: str, audio_suffixes: set[str]) -> Path | None:
     """The ``.beats`` file or audio file in ``music_dir`` that belongs to a clip, if any."""
     for stem in song_stem(clip_name):
         beats = music_dir / f"{stem}.beats"
         if beats.is_file():
             return beats
-        for path in sorted(music_dir.glob(f"{glob_escape(stem)}.*")):
-            if path.suffix.lower() in audio_suffixes:
-                return path
+        audio = find_audio(music_dir, stem, audio_suffixes)
+        if audio is not None:
+            return audio
     return None
 
 

@@ -54,9 +54,9 @@ def plot_clip_beats(clip: JointClip, path: Path, onset: np.ndarray | None = None
         (axes[0], music_novelty, music_fps, "music tempogram" + (" (onsets)" if onset is not None else " (beats)")),
         (axes[1], kin_novelty, fps, "kinematic tempogram (hips beats)"),
     ):
-        tg, bpm, times = tempogram(novelty, rate, window_seconds=min(4.0, clip.duration / 2))
-        extent = (times[0], times[-1] if len(times) > 1 else times[0] + 1, bpm[0], bpm[-1])
-        ax.imshow(tg, origin="lower", aspect="auto", extent=extent, cmap="magma")
+        window = min(4.0, clip.duration / 2)
+        tg, bpm, times = tempogram(novelty, rate, window_seconds=window)
+        ax.pcolormesh(_edges(times, linear=True), _edges(bpm, linear=False), tg, cmap="magma", shading="flat")
         ax.set_yscale("log")
         ax.set_ylabel("bpm")
         ax.set_title(title)
@@ -74,6 +74,18 @@ def plot_clip_beats(clip: JointClip, path: Path, onset: np.ndarray | None = None
     ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     return _save(fig, path)
+
+
+def _edges(centres: np.ndarray, linear: bool) -> np.ndarray:
+    """Cell edges around sorted centres (arithmetic or geometric midpoints)."""
+    c = np.asarray(centres, dtype=np.float64)
+    if len(c) == 1:
+        return np.array([c[0] - 0.5, c[0] + 0.5]) if linear else np.array([c[0] / 1.05, c[0] * 1.05])
+    if linear:
+        mid = (c[1:] + c[:-1]) / 2
+        return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])
+    mid = np.sqrt(c[1:] * c[:-1])
+    return np.concatenate([[c[0] ** 2 / mid[0]], mid, [c[-1] ** 2 / mid[-1]]])
 
 
 def plot_freezing(clips: Sequence[JointClip], path: Path, threshold: float = 0.015, min_seconds: float = 3.0) -> Path:
@@ -111,17 +123,15 @@ def write_plots(generated: Sequence[JointClip], out_dir: Path, max_clips: int = 
     written = [plot_freezing(generated, out_dir / "freezing.png")]
     with_music = [c for c in generated if c.music_beats is not None and len(c.positions) >= 3]
     for clip in with_music[:max_clips]:
-        onset = None
-        song = clip.meta.get("music")
-        if song and not str(song).endswith(".beats"):
-            onset = _song_onsets(song)
+        audio = clip.meta.get("audio")
+        onset = _song_onsets(audio) if audio else None
         written.append(plot_clip_beats(clip, out_dir / f"beats-{clip.name}.png", onset))
     return written
 
 
-def _song_onsets(song: str) -> np.ndarray | None:
+def _song_onsets(song: str) -> np.ndarray:
     from dance_core.data.features import load_audio
-    from dance_core.evaluation.music import onset_envelope
+    from dance_core.evaluation.music import ONSET_FPS, novelty, onset_envelope
     from dance_core.registry import get_registry
 
-    return onset_envelope(load_audio(song, get_registry()))
+    return novelty(onset_envelope(load_audio(song, get_registry())), ONSET_FPS)

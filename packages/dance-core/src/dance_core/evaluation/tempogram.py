@@ -27,12 +27,13 @@ def tempogram(
     Each column is the normalized autocorrelation of a Hann-windowed stretch of the novelty
     curve, read at the lags of ``n_bpm`` log-spaced tempi.
     """
-    x = np.asarray(novelty, dtype=np.float64)
-    win = max(4, min(len(x), int(round(window_seconds * fps))))
+    win = max(4, int(round(window_seconds * fps)))
     hop = max(1, int(round(hop_seconds * fps)))
+    half = win // 2  # zero padding so that window centres run from the start to the end
+    x = np.concatenate([np.zeros(half), np.asarray(novelty, dtype=np.float64), np.zeros(win - half)])
     bpm = np.geomspace(bpm_range[0], bpm_range[1], n_bpm)
     lags = 60.0 * fps / bpm
-    starts = np.arange(0, max(1, len(x) - win + 1), hop)
+    starts = np.arange(0, len(x) - win + 1, hop)
     out = np.zeros((n_bpm, len(starts)))
     taper = np.hanning(win)
     for k, s in enumerate(starts):
@@ -43,4 +44,4 @@ def tempogram(
             continue
         ac = ac / ac[0]
         out[:, k] = np.interp(lags, np.arange(len(ac)), ac, right=0.0)
-    return np.clip(out, 0.0, None), bpm, (starts + win / 2) / fps
+    return np.clip(out, 0.0, None), bpm, (starts + win / 2 - half) / fps
