@@ -73,7 +73,7 @@ def test_checkpoint_stores_the_representation_and_skeleton(run):
 
     recipe, result = run
     info = load_checkpoint(result.checkpoint).motion
-    assert info["representation"] == {"plugin": "rotations", "rotation": "expmap", "root": "deltas"}
+    assert info["representation"] == {"plugin": "rotations", "rotation": "expmap", "root": "deltas", "joints": None}
     assert info["skeleton"]["name"] == "smpl24" and info["dim"] == 4 + 24 * 3
     assert info["channels"][:2] == ["root.dx", "root.dz"]
     json.dumps(info)
@@ -134,3 +134,18 @@ def test_training_learns_and_mirroring_doubles_the_clips(run):
     np.testing.assert_allclose(b.root, a.root * [-1, 1, 1])
     assert np.abs(np.abs((b.rotations[:, pairs] * a.rotations * [1, -1, -1, 1]).sum(-1)) - 1).max() < 1e-9
     np.testing.assert_allclose(sources[1].motion.values[:, 2], sources[0].motion.values[:, 2])  # same height
+
+
+def test_2d_keypoints_round_trip_through_the_position_representation():
+    from dance_core.motion.motion import Motion
+    from dance_core.motion.skeletons import body25
+
+    skel = body25()
+    rng = np.random.default_rng(4)
+    pos = skel.rest_positions()[None] + rng.normal(0, 0.05, (15, 25, 3))
+    pos[..., 2] = 0.0
+    motion = Motion(skel, 30.0, pos[:, 0], joint_positions=pos)
+    rep = PositionRepresentation(2, "absolute")
+    values = rep.encode(motion)
+    assert values.shape == (15, 3 + 50)
+    np.testing.assert_allclose(rep.decode(values, skel, 30.0).positions(), pos, atol=1e-5)

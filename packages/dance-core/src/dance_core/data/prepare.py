@@ -59,7 +59,9 @@ def motion_info(recipe: Recipe, sources: list[ClipSource], dim: int) -> dict[str
     channels = sources[0].motion.channels
     info: dict[str, Any] = {"dim": dim, "fps": recipe.fps, "channels": list(channels) if channels else None}
     if recipe.motion is not None:
-        info["representation"] = {"plugin": recipe.motion.plugin, **recipe.motion.options()}
+        config = recipe.motion.config  # validated, defaults filled in: decoding never depends on today's defaults
+        options = config.model_dump(mode="json") if config is not None else recipe.motion.options()
+        info["representation"] = {"plugin": recipe.motion.plugin, **options}
         info["skeleton"] = sources[0].motion.skeleton_motion.skeleton.to_dict()
     return info
 
