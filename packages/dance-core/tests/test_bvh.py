@@ -103,3 +103,22 @@ def test_writing_features_without_a_skeleton_is_refused(tmp_path):
         BvhFormat().write(MotionData(np.zeros((3, 4), np.float32), 20.0), tmp_path / "x.bvh")
     with pytest.raises(DataError, match="not found"):
         BvhFormat().read(tmp_path / "missing.bvh")
+
+
+def test_real_mocap_through_transflowers_representation_and_resampling(cmu):
+    from dance_core.motion.representation import RotationRepresentation
+    from dance_core.motion.root import root_to_deltas
+    from dance_core.motion.rotations import quat_conj, quat_rotate, yaw_quat
+
+    clip = cmu.crop(0, 1200)  # 10 s at 120 fps
+    rep = RotationRepresentation("expmap", "deltas")
+    values = rep.encode(clip)
+    assert values.shape == (1200, 4 + 31 * 3)
+    _, _, start = root_to_deltas(clip.root, clip.rotations[:, 0])
+    ref = quat_rotate(quat_conj(yaw_quat(start.yaw)), clip.positions() - [start.x, 0.0, start.z])
+    err = np.abs(rep.decode(values, clip.skeleton, clip.fps).positions() - ref).max()
+    assert err <= 1e-4 * cmu.skeleton.height()  # float32 features, integrated over 1200 frames
+    slow = clip.resample(20.0)  # Transflower's rate, low-pass filtered first
+    assert slow.n_frames == 200
+    diff = np.abs(slow.positions() - clip.positions()[::6])
+    assert np.percentile(diff, 99) < 0.01 * cmu.skeleton.height() and diff.max() < 0.06 * cmu.skeleton.height()
