@@ -22,7 +22,7 @@ from dance_core.evaluation.metrics import (
     PhysicalFootContact,
 )
 from dance_core.motion.skeletons import SMPL_REST
-from dance_core.protocols import JointClip
+from dance_core.protocols import JointClip, Metric
 
 
 def dancer(seed: int, seconds: float = 6.0, fps: float = 60.0, bpm: float = 120.0) -> JointClip:
@@ -266,6 +266,7 @@ def test_every_registered_metric_gives_a_finite_value_or_a_clear_error(case):
     generated = [JointClip(f"{case}{k}", np.repeat(rest, frames, axis=0), 20.0, music_beats=beats) for k in range(2)]
     for name in registry.names("metric"):
         metric = build_metric(name, registry)
+        assert isinstance(metric, Metric) and set(metric.needs) <= {"reference", "music"}
         try:
             result = metric(generated, reference)
         except DataError as exc:
