@@ -49,9 +49,9 @@ def measure_encoder(minutes: float, dense: bool) -> dict:
     import dance_rnn.encoder
 
     if dense:
-        dance_rnn.encoder.banded_attention = (
-            lambda q, k, v, half, bias, block, dropout, training: dance_rnn.banded.dense_banded_attention(
-                q, k, v, half, bias))
+        dance_rnn.encoder.banded_attention = lambda q, k, v, half, bias, block, dropout, training: (
+            dance_rnn.banded.dense_banded_attention(q, k, v, half, bias)
+        )
     torch.manual_seed(0)
     encoder = paper_model().encoder
     n = int(minutes * 60 * FPS)
@@ -63,8 +63,7 @@ def measure_encoder(minutes: float, dense: bool) -> dict:
         out = encoder(None, {"music": music})
         seconds = time.perf_counter() - start
     assert out.shape == (1, n, 1024)
-    return {"minutes": minutes, "frames": n, "dense": dense, "seconds": seconds,
-            "peak_mb": peak_mb() - before}
+    return {"minutes": minutes, "frames": n, "dense": dense, "seconds": seconds, "peak_mb": peak_mb() - before}
 
 
 def measure_generation(recipe_name: str, seconds: float) -> dict:
@@ -109,18 +108,24 @@ def main() -> None:
         return
     import torch
 
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPU cores, "
-          f"torch {torch.__version__} ({torch.get_num_threads()} threads), CPU only\n")
+    print(
+        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPU cores, "
+        f"torch {torch.__version__} ({torch.get_num_threads()} threads), CPU only\n"
+    )
     print("| song | frames (20 fps) | attention | time (s) | peak memory (MB) | MB per minute |")
     print("|---|---|---|---|---|---|")
     for minutes in (1.0, 5.0, 20.0):
         r = child(["encoder", str(minutes), "banded"])
-        print(f"| {minutes:g} min | {r['frames']} | banded k=100 | {r['seconds']:.2f} | {r['peak_mb']:.0f} | "
-              f"{r['peak_mb'] / minutes:.0f} |")
+        print(
+            f"| {minutes:g} min | {r['frames']} | banded k=100 | {r['seconds']:.2f} | {r['peak_mb']:.0f} | "
+            f"{r['peak_mb'] / minutes:.0f} |"
+        )
     for minutes in args.dense_minutes:
         r = child(["encoder", str(minutes), "dense"])
-        print(f"| {minutes:g} min | {r['frames']} | dense n×n mask | {r['seconds']:.2f} | {r['peak_mb']:.0f} | "
-              f"{r['peak_mb'] / minutes:.0f} |")
+        print(
+            f"| {minutes:g} min | {r['frames']} | dense n×n mask | {r['seconds']:.2f} | {r['peak_mb']:.0f} | "
+            f"{r['peak_mb'] / minutes:.0f} |"
+        )
     print("\n| recipe | 60 s song | time (s) | × real time |")
     print("|---|---|---|---|")
     for name in ("dancerevolution-small", "dancerevolution"):

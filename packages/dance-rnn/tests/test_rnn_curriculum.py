@@ -86,7 +86,9 @@ def test_loss_reads_q_from_the_named_schedule():
     head = small_model("model.head.teacher_frames=2").head
     latent, target, history = torch.randn(3, 12, 64), torch.randn(3, 12, 18), torch.randn(3, 1, 18)
     for q in (0, 3):
-        ctx = TrainContext(step=0, epoch=0, values={"auto_condition": float(q)}, generator=torch.Generator().manual_seed(5))
+        ctx = TrainContext(
+            step=0, epoch=0, values={"auto_condition": float(q)}, generator=torch.Generator().manual_seed(5)
+        )
         pred, _ = head.rollout(latent, target, history, q, torch.Generator().manual_seed(5))
         assert torch.allclose(head.loss(latent, target, history, ctx)["loss"], (pred - target).abs().mean())
     with pytest.raises(RecipeError, match=r"^training\.schedules\.auto_condition: the lstm-decoder head"):
@@ -100,8 +102,14 @@ def test_trainer_hands_the_schedule_value_to_the_head(tmp_path):
 
     recipe = load_recipe(
         "dancerevolution-small",
-        ["features.music=[{plugin: energy}]", "data.dataset.songs=3", "data.dataset.seconds=4", "data.segment_frames=20", "training.batch_size=4",
-         "training.schedules.auto_condition={plugin: auto-condition-linear, rate: 1.0, offset: 0}"],
+        [
+            "features.music=[{plugin: energy}]",
+            "data.dataset.songs=3",
+            "data.dataset.seconds=4",
+            "data.segment_frames=20",
+            "training.batch_size=4",
+            "training.schedules.auto_condition={plugin: auto-condition-linear, rate: 1.0, offset: 0}",
+        ],
     )
     trainer = Trainer(recipe, tmp_path, quiet=True)
     seen = []

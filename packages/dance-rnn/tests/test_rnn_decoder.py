@@ -47,8 +47,9 @@ def test_generation_equals_a_fully_self_conditioned_rollout():
     with torch.no_grad():
         padded = torch.cat([music, music[:, -1:]], dim=1)  # generate() repeats the last frame once
         latent = model.encoder(None, model.condition({"music": padded}))
-        pred, inputs = model.head.rollout(latent[:, 1:40], out[:, 1:], seed, q=10**6,
-                                          generator=torch.Generator().manual_seed(3))
+        pred, inputs = model.head.rollout(
+            latent[:, 1:40], out[:, 1:], seed, q=10**6, generator=torch.Generator().manual_seed(3)
+        )
     assert torch.allclose(pred, out[:, 1:], atol=1e-5)
     assert torch.allclose(inputs[:, 1:], out[:, 1:-1], atol=1e-5)
 
@@ -56,8 +57,10 @@ def test_generation_equals_a_fully_self_conditioned_rollout():
 def test_temperature_does_not_change_the_deterministic_decoder():
     model = small_model(motion_dim=18)
     music, seed = torch.randn(1, 20, 4), torch.zeros(1, 1, 18)
-    outs = [model.generate({"music": music}, 20, seed, temperature=t, generator=torch.Generator().manual_seed(0))
-            for t in (0.0, 1.0, 2.0)]
+    outs = [
+        model.generate({"music": music}, 20, seed, temperature=t, generator=torch.Generator().manual_seed(0))
+        for t in (0.0, 1.0, 2.0)
+    ]
     assert torch.equal(outs[0], outs[1]) and torch.equal(outs[1], outs[2])
 
 
@@ -86,3 +89,13 @@ def test_paper_recipe_has_the_paper_sizes():
     assert recipe.data.segment_frames == 900 and recipe.fps == 15 and recipe.training.grad_clip is None
     assert [f.plugin for f in recipe.features["music"]] == ["librosa-438"]
     assert recipe.motion.plugin == "positions" and recipe.motion.config.dims == 2
+
+
+def test_single_step_path_equals_the_lstm_module():
+    head = small_model(motion_dim=18).head
+    x, latent = torch.randn(4, 1, 18), torch.randn(4, 1, 64)
+    state = head.init_state(4, torch.Generator().manual_seed(0))
+    fast, (h1, c1) = head.run(x, latent, state)
+    hidden, (h2, c2) = head.lstm(head.pose(x), state)
+    assert torch.allclose(fast, head.out(torch.cat([hidden, latent], -1)), atol=1e-6)
+    assert torch.allclose(h1, h2, atol=1e-6) and torch.allclose(c1, c2, atol=1e-6)

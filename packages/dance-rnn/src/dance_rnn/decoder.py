@@ -15,6 +15,7 @@ from __future__ import annotations
 from typing import Any
 
 import torch
+import torch.nn.functional as F
 from torch import nn
 
 from dance_core.errors import RecipeError
@@ -38,8 +39,13 @@ class LSTMDecoder(nn.Module):
         pose_dim = config.pose_dim or motion_dim
         self.pose = nn.Linear(motion_dim, pose_dim)
         self.drop = nn.Dropout(config.dropout)
-        self.lstm = nn.LSTM(pose_dim, config.hidden, config.layers, batch_first=True,
-                            dropout=config.dropout if config.layers > 1 else 0.0)
+        self.lstm = nn.LSTM(
+            pose_dim,
+            config.hidden,
+            config.layers,
+            batch_first=True,
+            dropout=config.dropout if config.layers > 1 else 0.0,
+        )
         self.out = nn.Linear(config.hidden + latent_dim, motion_dim)
 
     def init_state(self, batch: int, generator: torch.Generator | None = None) -> State:
@@ -52,11 +58,34 @@ class LSTMDecoder(nn.Module):
 
     def run(self, inputs: torch.Tensor, latent: torch.Tensor, state: State) -> tuple[torch.Tensor, State]:
         """Frames ``(B, L, D)`` predicted from input frames ``(B, L, D)`` and latents ``(B, L, d)``."""
-        hidden, state = self.lstm(self.drop(self.pose(inputs)), state)
+        x = self.drop(self.pose(inputs))
+        hidden, state = self.lstm(x, state) if x.shape[1] > 1 else self._one_step(x, state)
         return self.out(torch.cat([hidden, latent.to(hidden.dtype)], dim=-1)), state
 
+    def _one_step(self, x: torch.Tensor, state: State) -> tuple[torch.Tensor, State]:
+        """One time step through the stack with the LSTM's own weights (the same function as
+        ``self.lstm`` on a length-1 sequence, without its per-call overhead)."""
+        h, c = state
+        lstm, inp = self.lstm, x[:, 0]
+        hs, cs = [], []
+        for k in range(lstm.num_layers):
+            if k:
+                inp = F.dropout(inp, lstm.dropout, self.training)
+            gates = F.linear(inp, getattr(lstm, f"weight_ih_l{k}"), getattr(lstm, f"bias_ih_l{k}"))
+            gates = gates + F.linear(h[k], getattr(lstm, f"weight_hh_l{k}"), getattr(lstm, f"bias_hh_l{k}"))
+            i, f, g, o = gates.chunk(4, dim=-1)  # PyTorch's gate order
+            c_k = torch.sigmoid(f) * c[k] + torch.sigmoid(i) * torch.tanh(g)
+            inp = torch.sigmoid(o) * torch.tanh(c_k)
+            hs.append(inp)
+            cs.append(c_k)
+        return inp[:, None], (torch.stack(hs), torch.stack(cs))
+
     def rollout(
-        self, latent: torch.Tensor, target: torch.Tensor, history: torch.Tensor, q: int,
+        self,
+        latent: torch.Tensor,
+        target: torch.Tensor,
+        history: torch.Tensor,
+        q: int,
         generator: torch.Generator | None = None,
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """Predictions ``(B, T, D)`` under auto-condition, and the inputs actually fed ``(B, T, D)``.
@@ -102,14 +131,21 @@ class LSTMDecoder(nn.Module):
             raise RecipeError(f"training.schedules.{name}: q must be >= 0, got {ctx.values[name]}")
         return q
 
-    def loss(self, latent: torch.Tensor, target: torch.Tensor, history: torch.Tensor,
-             ctx: TrainContext) -> dict[str, torch.Tensor]:
+    def loss(
+        self, latent: torch.Tensor, target: torch.Tensor, history: torch.Tensor, ctx: TrainContext
+    ) -> dict[str, torch.Tensor]:
         """L1 error of every predicted frame under the curriculum's current q."""
         pred, _ = self.rollout(latent, target, history, self.generated_per_period(ctx), ctx.generator)
         return {"loss": (pred - target).abs().mean()}
 
-    def step(self, latent: torch.Tensor, history: torch.Tensor, state: State | None,
-             temperature: float = 1.0, generator: torch.Generator | None = None) -> tuple[torch.Tensor, State]:
+    def step(
+        self,
+        latent: torch.Tensor,
+        history: torch.Tensor,
+        state: State | None,
+        temperature: float = 1.0,
+        generator: torch.Generator | None = None,
+    ) -> tuple[torch.Tensor, State]:
         """The next frame ``(B, 1, D)`` from the previous one; ``temperature`` has no effect (the
         randomness is all in the initial state)."""
         if state is None:

@@ -31,8 +31,9 @@ def sinusoidal_positions(n: int, dim: int, device: torch.device | None = None) -
 class LocalSelfAttention(nn.Module):
     """Multi-head self-attention over ``|i - j| <= half``, optionally with a learned offset bias."""
 
-    def __init__(self, dim: int, heads: int, head_dim: int, half: int, relative: bool,
-                 dropout: float, block: int | None):
+    def __init__(
+        self, dim: int, heads: int, head_dim: int, half: int, relative: bool, dropout: float, block: int | None
+    ):
         super().__init__()
         self.heads, self.head_dim, self.half, self.block = heads, head_dim, half, block
         self.dropout = dropout
@@ -54,8 +55,9 @@ class EncoderLayer(nn.Module):
     def __init__(self, config, half: int):
         super().__init__()
         c = config
-        self.attention = LocalSelfAttention(c.dim, c.heads, c.head_dim, half, c.position == "relative",
-                                            c.dropout, c.block)
+        self.attention = LocalSelfAttention(
+            c.dim, c.heads, c.head_dim, half, c.position == "relative", c.dropout, c.block
+        )
         self.norm1 = nn.LayerNorm(c.dim)
         self.ff = nn.Sequential(nn.Linear(c.dim, c.ff_dim), nn.ReLU(), nn.Linear(c.ff_dim, c.dim))
         self.norm2 = nn.LayerNorm(c.dim)
