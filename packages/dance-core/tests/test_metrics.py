@@ -247,8 +247,13 @@ def test_guards_have_clear_messages():
         Freezing()([JointClip("short", np.zeros((20, 24, 3)), 20.0)])
     with pytest.raises(DataError, match="NaN"):
         Freezing()([JointClip("nan", np.full((100, 24, 3), np.nan), 20.0)])
+    six = JointClip("six", np.zeros((50, 6, 3)), 60.0)
     with pytest.raises(DataError, match="different joint counts"):
-        FrechetPose(3)(clips, [JointClip("six", np.zeros((50, 6, 3)), 60.0)])
+        FrechetPose(3)(clips, [six])
+    with pytest.raises(DataError, match="different joint counts"):
+        FeatureFID("kinetic")(clips, [six, six])
+    with pytest.raises(DataError, match="different joint counts"):
+        FeatureDiversity("kinetic")([*clips, six])
     with pytest.raises(DataError, match="ankle and toe"):
         PhysicalFootContact()([JointClip("six", np.zeros((50, 6, 3)), 60.0)])
 

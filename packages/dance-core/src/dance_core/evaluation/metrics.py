@@ -17,15 +17,18 @@ from dance_core.evaluation.geometric import geometric_features
 from dance_core.evaluation.kinetic import kinetic_features
 from dance_core.protocols import JointClip, MetricResult
 
-FEATURES: dict[str, tuple[str, Callable[[JointClip, bool], np.ndarray]]] = {
+FEATURE_KINDS: dict[str, tuple[str, Callable[[JointClip, bool], np.ndarray]]] = {
     "kinetic": ("k", kinetic_features),
     "geometric": ("g", geometric_features),
 }
 
 
 def feature_matrix(clips: Sequence[JointClip], kind: str, compat: bool) -> np.ndarray:
-    """Stacked per-clip features ``(N, D)`` of one kind."""
-    fn = FEATURES[kind][1]
+    """Stacked per-clip features ``(N, D)`` of one kind (one joint count across the clips)."""
+    counts = sorted({np.shape(c.positions)[1] for c in clips if np.ndim(c.positions) == 3})
+    if len(counts) > 1:
+        raise DataError(f"{kind} features: the clips have different joint counts {counts}")
+    fn = FEATURE_KINDS[kind][1]
     return np.stack([fn(c, compat) for c in clips])
 
 
@@ -36,12 +39,13 @@ class FeatureFID:
 
     def __init__(self, kind: str, compat: bool = False):
         self.kind, self.compat = kind, compat
-        self.value = f"FID_{FEATURES[kind][0]}"
+        self.value = f"FID_{FEATURE_KINDS[kind][0]}"
 
     def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
         """Score the generated set against the reference set."""
         require_clips(generated, 2, self.value)
         require_clips(reference, 2, self.value, "reference")
+        same_joint_count(generated, reference, self.value)
         ref, gen = normalize(
             feature_matrix(reference, self.kind, self.compat),
             feature_matrix(generated, self.kind, self.compat),
@@ -57,7 +61,7 @@ class FeatureDiversity:
 
     def __init__(self, kind: str, compat: bool = False):
         self.kind, self.compat = kind, compat
-        self.value = f"Div_{FEATURES[kind][0]}"
+        self.value = f"Div_{FEATURE_KINDS[kind][0]}"
 
     def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
         """Normalize with the reference's statistics (or the generated set's own, with a note)."""
@@ -65,6 +69,7 @@ class FeatureDiversity:
         gen = feature_matrix(generated, self.kind, self.compat)
         notes = []
         if reference:
+            same_joint_count(generated, reference, self.value)
             _, gen = normalize(feature_matrix(reference, self.kind, self.compat), gen, compat=self.compat)
         else:
             gen = normalize(gen, compat=self.compat)[0]
