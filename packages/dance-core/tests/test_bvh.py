@@ -122,3 +122,15 @@ def test_real_mocap_through_transflowers_representation_and_resampling(cmu):
     assert slow.n_frames == 200
     diff = np.abs(slow.positions() - clip.positions()[::6])
     assert np.percentile(diff, 99) < 0.01 * cmu.skeleton.height() and diff.max() < 0.06 * cmu.skeleton.height()
+
+
+def test_z_up_files_are_turned_to_y_up_and_back(cmu, tmp_path):
+    short = cmu.crop(0, 50)
+    BvhFormat(up="z").write_motion(short, tmp_path / "z.bvh")
+    raw = BvhFormat().read_motion(tmp_path / "z.bvh").positions()  # read as if Y up: the file is Z up
+    ours = short.positions()
+    np.testing.assert_allclose(raw[..., 2], ours[..., 1], atol=1e-4 * cmu.skeleton.height())  # up is file z
+    np.testing.assert_allclose(raw[..., 1], -ours[..., 2], atol=1e-4 * cmu.skeleton.height())
+    back = BvhFormat(up="z").read_motion(tmp_path / "z.bvh")
+    np.testing.assert_allclose(back.positions(), ours, atol=1e-4 * cmu.skeleton.height())
+    assert np.abs(back.skeleton.rest_positions() - cmu.skeleton.rest_positions()).max() < 1e-9  # stands up again

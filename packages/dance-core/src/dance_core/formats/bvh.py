@@ -11,7 +11,7 @@ import numpy as np
 from dance_core.atomic import atomic_path
 from dance_core.errors import DataError
 from dance_core.motion.motion import Motion
-from dance_core.motion.rotations import euler_to_quat, quat_to_euler
+from dance_core.motion.rotations import euler_to_quat, quat_conj, quat_mul, quat_rotate, quat_to_euler
 from dance_core.motion.skeleton import Skeleton
 from dance_core.protocols import MotionData
 
@@ -217,26 +217,52 @@ def motion_to_bvh_text(motion: Motion, scale: float = 1.0, precision: int = 6) -
     return "\n".join(out) + "\n" + buf.getvalue()
 
 
-class BvhFormat:
-    """The ``bvh`` motion format; ``scale`` converts file units on read (and back on write)."""
+#: the rotation taking a Z-up world to our Y-up one (-90 degrees about X)
+Z_TO_Y_UP = np.array([-np.sqrt(0.5), 0.0, 0.0, np.sqrt(0.5)])
 
-    def __init__(self, scale: float = 1.0, precision: int = 6):
+
+def reoriented(motion: Motion, q: np.ndarray) -> Motion:
+    """The motion expressed in a world turned by quaternion ``q``: a change of basis, so rest offsets
+    and End Sites turn with it and every local rotation becomes ``q r q^-1`` (the rest pose stands
+    up in the new world, and world positions are ``q`` applied to the old ones)."""
+    from dataclasses import replace
+
+    skel = motion.skeleton
+    turned = Skeleton(list(skel.names), list(skel.parents), quat_rotate(q, skel.offsets), list(skel.channels),
+                      {k: quat_rotate(q, v) for k, v in skel.end_sites.items()}, skel.units,
+                      "y" if skel.up == "z" else "z", skel.name)
+    rot = quat_mul(quat_mul(q, motion.rotations), quat_conj(q))
+    return replace(motion, skeleton=turned, root=quat_rotate(q, motion.root), rotations=rot)
+
+
+class BvhFormat:
+    """The ``bvh`` motion format; ``scale`` converts file units on read (and back on write), and
+    ``up="z"`` turns Z-up files into our Y-up convention (and back on write)."""
+
+    def __init__(self, scale: float = 1.0, precision: int = 6, up: str = "y"):
         self.scale = scale
         self.precision = precision
+        self.up = up
+
+    def _motion(self, path: str | Path) -> tuple[Motion, np.ndarray, list[str]]:
+        skel, values, names, fps = parse_bvh(path, self.scale)
+        skel.up = self.up
+        motion = frames_to_motion(skel, values, fps, self.scale, str(path))
+        return (reoriented(motion, Z_TO_Y_UP) if self.up == "z" else motion), values, names
 
     def read_motion(self, path: str | Path) -> Motion:
-        """The skeletal motion in a BVH file."""
-        skel, values, _, fps = parse_bvh(path, self.scale)
-        return frames_to_motion(skel, values, fps, self.scale, str(path))
+        """The skeletal motion in a BVH file (Y up)."""
+        return self._motion(path)[0]
 
     def read(self, path: str | Path) -> MotionData:
         """Raw channel values as the frame array, with the skeletal motion attached."""
-        skel, values, names, fps = parse_bvh(path, self.scale)
-        motion = frames_to_motion(skel, values, fps, self.scale, str(path))
-        return MotionData(values.astype(np.float32), fps, names, {"path": str(path)}, motion)
+        motion, values, names = self._motion(path)
+        return MotionData(values.astype(np.float32), motion.fps, names, {"path": str(path)}, motion)
 
     def write_motion(self, motion: Motion, path: str | Path) -> None:
         """Write a skeletal motion atomically."""
+        if self.up == "z" and motion.rotations is not None:
+            motion = reoriented(motion, quat_conj(Z_TO_Y_UP))
         text = motion_to_bvh_text(motion, 1.0 / self.scale, self.precision)
         with atomic_path(path) as tmp:
             tmp.write_text(text, encoding="utf-8")
@@ -251,5 +277,5 @@ class BvhFormat:
 
 def build(config: Any = None, **_: Any) -> BvhFormat:
     """Build the ``bvh`` format."""
-    return BvhFormat(scale=getattr(config, "scale", 1.0), precision=getattr(config, "precision", 6))
+    return BvhFormat(getattr(config, "scale", 1.0), getattr(config, "precision", 6), getattr(config, "up", "y"))
 

@@ -27,10 +27,11 @@ class PositionRepresentationConfig(ComponentConfig):
 
 
 class BvhFormatConfig(ComponentConfig):
-    """Length scale applied on read (inverted on write), and decimals written."""
+    """Length scale applied on read (inverted on write), decimals written, and the files' up axis."""
 
     scale: PositiveFloat = 1.0
     precision: PositiveInt = 6
+    up: Literal["y", "z"] = Field("y", description="up axis of the files; z-up files are turned to y-up on read")
 
 
 class SmplFormatConfig(ComponentConfig):
