@@ -199,6 +199,15 @@ def verdict(better: bool, equal: bool) -> str:
     return "holds" if better else "does not hold (equal)" if equal else "does not hold"
 
 
+def freezes_less(a: dict, b: dict) -> str:
+    """Compare freezing: PFF first, AUC_f (freezing at other thresholds) when PFF ties."""
+    p, q, x, y = a.get("PFF"), b.get("PFF"), a.get("AUC_f"), b.get("AUC_f")
+    if None in (p, q, x, y):
+        return "freezing could not be measured"
+    better, equal = p < q or (p == q and x < y), p == q and x == y
+    return f"PFF {fmt(p)} % vs {fmt(q)} %, AUC_f {fmt(x)} vs {fmt(y)}: {verdict(better, equal)}"
+
+
 def claims(rows: list[Row], long_seconds: float) -> list[str]:
     """Whether the papers' central claims hold here, with the numbers."""
     by = {r.label.split(" (")[0].split(",")[0] + (" TF" if "teacher" in r.label else ""): r for r in rows}
@@ -206,22 +215,17 @@ def claims(rows: list[Row], long_seconds: float) -> list[str]:
     tf, aic = by.get("Transflower"), by.get("AI Choreographer")
     if tf and aic and tf.values and aic.values:
         a, b = tf.values["FMD"], aic.values["FMD"]
-        p, q = tf.values["PFF"], aic.values["PFF"]
         out.append(
             f"- **Transflower** (the flow head beats the deterministic head on FMD and freezes less): "
-            f"FMD {fmt(a)} vs {fmt(b)}: {verdict(a < b, a == b)}; "
-            f"PFF {fmt(p)} % vs {fmt(q)} %: {verdict(p < q, p == q)}."
+            f"FMD {fmt(a)} vs {fmt(b)}: {verdict(a < b, a == b)}; {freezes_less(tf.values, aic.values)}."
         )
     else:
         out.append("- **Transflower**: cannot be checked here (a row did not run).")
     cur, tforce = by.get("DanceRevolution"), by.get("DanceRevolution TF")
     if cur and tforce and cur.long_values and tforce.long_values:
-        p, q = cur.long_values["PFF"], tforce.long_values["PFF"]
-        a, b = cur.long_values["AUC_f"], tforce.long_values["AUC_f"]
         out.append(
             f"- **DanceRevolution** (curriculum training freezes less than pure teacher forcing over "
-            f"{long_seconds:g} s): PFF {fmt(p)} % vs {fmt(q)} %, AUC_f {fmt(a)} vs {fmt(b)}: "
-            f"{verdict(p < q or (p == q and a < b), p == q and a == b)}."
+            f"{long_seconds:g} s): {freezes_less(cur.long_values, tforce.long_values)}."
         )
     else:
         out.append("- **DanceRevolution**: cannot be checked here (a row did not run).")
