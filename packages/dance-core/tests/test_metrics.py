@@ -279,3 +279,16 @@ def test_every_registered_metric_gives_a_finite_value_or_a_clear_error(case):
             assert "\n" not in str(exc)
             continue
         assert result.values and all(np.isfinite(v) for v in result.values.values()), (name, result.values)
+
+
+def test_tempogram_peaks_at_the_pulse_tempo():
+    from dance_core.evaluation.tempogram import impulses, tempogram
+
+    fps = 50.0
+    pulse = impulses(np.arange(0.2, 20.0, 0.5), int(20 * fps), fps)  # 120 bpm
+    tg, bpm, times = tempogram(pulse, fps, window_seconds=6.0)
+    assert times[0] == pytest.approx(0.0) and times[-1] == pytest.approx(20.0, abs=0.5)
+    middle = tg[:, len(times) // 2]
+    # the strongest tempo between 80 and 160 bpm is the pulse (its halves and doubles come next)
+    band = (bpm > 80) & (bpm < 160)
+    assert bpm[band][np.argmax(middle[band])] == pytest.approx(120.0, rel=0.03)
