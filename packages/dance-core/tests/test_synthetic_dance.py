@@ -93,3 +93,21 @@ def test_dance_synth_cli_writes_the_dataset_and_keeps_the_click_track(tmp_path, 
     assert main(["synth", str(tmp_path / "click.wav"), "--seconds", "1"]) == 0
     assert (tmp_path / "click.wav").stat().st_size > 1000
     assert main(["synth"]) == 1 and "--out DIR" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("style", ["four-on-the-floor", "backbeat", "hiphop", "latin"])
+def test_the_music_is_loud_on_its_beats_in_every_style(style):
+    from dance_core.data.synth_music import synthesize
+
+    song = synthesize(30.0, 112.0, 8000, np.random.default_rng(5), style)
+    hop = 80  # 10 ms frames
+    frames = song.audio[: len(song.audio) // hop * hop].reshape(-1, hop)
+    energy = np.log(1e-6 + (frames**2).mean(axis=1))
+    onset = np.maximum(np.diff(energy, prepend=energy[0]), 0)
+    at = lambda times: onset[np.clip(np.round(np.asarray(times) * 100).astype(int), 0, len(onset) - 1)]  # noqa: E731
+    near = lambda times: np.max([at(times + d) for d in (-0.01, 0.0, 0.01)], axis=0)  # noqa: E731
+    beat_strength = near(song.beats)
+    between = near(song.beats[:-1] + np.diff(song.beats) * 0.37)  # off the 16th-note grid
+    assert np.median(between) > 0.1  # the measure sees the pads and tails, not silence
+    assert beat_strength.min() > 3 * np.median(between)  # every beat, intro included, is a clear onset
+    assert [name for name, _, _ in song.section_bars][0] == "intro" and len(song.downbeats) == len(song.beats[::4])

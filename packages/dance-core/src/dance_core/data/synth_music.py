@@ -19,12 +19,12 @@ STYLES = {
     "hiphop": ((0, 6, 8, 11), (4, 12), tuple(range(16))),
     "latin": ((0, 3, 8, 11), (6, 14), (0, 3, 6, 10, 12)),
 }
-SECTIONS = {  # name -> (drums, bass, chords, loudness)
-    "intro": (False, False, True, 0.6),
-    "verse": (True, True, True, 0.8),
-    "chorus": (True, True, True, 1.0),
-    "bridge": (True, False, True, 0.7),
-    "outro": (False, True, True, 0.6),
+SECTIONS = {  # name -> (drum parts, bass, chords, loudness); every section keeps the beat audible
+    "intro": (("kick", "hat"), False, True, 0.6),
+    "verse": (("kick", "snare", "hat"), True, True, 0.8),
+    "chorus": (("kick", "snare", "hat"), True, True, 1.0),
+    "bridge": (("kick", "hat"), False, True, 0.7),
+    "outro": (("kick", "snare"), True, True, 0.6),
 }
 _PROGRESSIONS = ((0, 7, 9, 5), (0, 5, 7, 5), (9, 5, 0, 7), (0, 9, 5, 7))  # semitones: I-V-vi-IV etc.
 
@@ -96,13 +96,13 @@ def synthesize(seconds: float, bpm: float, rate: int, rng: np.random.Generator, 
     tb = np.arange(bar_len) / rate
     env = np.minimum(1.0, tb / 0.05) * np.minimum(1.0, (tb[-1] - tb) / 0.1 + 1e-3)
     for name, first, end in sections:
-        has_drums, has_bass, has_chords, loud = SECTIONS[name]
+        drum_parts, has_bass, has_chords, loud = SECTIONS[name]
         for bar in range(first, end):
             t0 = offset + bar * BEATS_PER_BAR * period
             root = key + prog[bar % len(prog)]
             f_root = 440.0 * 2 ** ((root - 69) / 12)
-            if has_drums:
-                for name_, steps in (("kick", kick_steps), ("snare", snare_steps), ("hat", hat_steps)):
+            for name_, steps in (("kick", kick_steps), ("snare", snare_steps), ("hat", hat_steps)):
+                if name_ in drum_parts:
                     for s in steps:
                         _place(drums, int(round((t0 + s * step) * rate)), loud * kit[name_])
             if has_bass:
