@@ -12,19 +12,19 @@ from dataclasses import dataclass
 import numpy as np
 
 BEATS_PER_BAR = 4
-#: drum hits per style as 16th-note steps within a bar: kick, snare, hi-hat
+#: drum hits per style as 16th-note steps within a bar: kick, snare, hi-hat (hats mark every beat)
 STYLES = {
     "four-on-the-floor": ((0, 4, 8, 12), (4, 12), (2, 6, 10, 14)),
     "backbeat": ((0, 8, 10), (4, 12), (0, 2, 4, 6, 8, 10, 12, 14)),
     "hiphop": ((0, 6, 8, 11), (4, 12), tuple(range(16))),
-    "latin": ((0, 3, 8, 11), (6, 14), (0, 3, 6, 10, 12)),
+    "latin": ((0, 7, 8, 15), (6, 14), (0, 3, 4, 6, 8, 10, 12, 14)),
 }
 SECTIONS = {  # name -> (drum parts, bass, chords, loudness); every section keeps the beat audible
     "intro": (("kick", "hat"), False, True, 0.6),
     "verse": (("kick", "snare", "hat"), True, True, 0.8),
     "chorus": (("kick", "snare", "hat"), True, True, 1.0),
     "bridge": (("kick", "hat"), False, True, 0.7),
-    "outro": (("kick", "snare"), True, True, 0.6),
+    "outro": (("kick", "snare", "hat"), True, True, 0.6),
 }
 _PROGRESSIONS = ((0, 7, 9, 5), (0, 5, 7, 5), (9, 5, 0, 7), (0, 9, 5, 7))  # semitones: I-V-vi-IV etc.
 
@@ -104,7 +104,8 @@ def synthesize(seconds: float, bpm: float, rate: int, rng: np.random.Generator, 
             for name_, steps in (("kick", kick_steps), ("snare", snare_steps), ("hat", hat_steps)):
                 if name_ in drum_parts:
                     for s in steps:
-                        _place(drums, int(round((t0 + s * step) * rate)), loud * kit[name_])
+                        accent = 3.0 if name_ == "hat" and s % 4 == 0 else 1.0  # hats accent the beat
+                        _place(drums, int(round((t0 + s * step) * rate)), accent * loud * kit[name_])
             if has_bass:
                 tn = np.arange(int(step * 3 * rate)) / rate
                 note = np.tanh(2 * np.sin(2 * np.pi * f_root * tn)) * np.exp(-tn / 0.25) * 0.35 * loud
