@@ -22,6 +22,14 @@ def _swapped(name: str) -> list[str]:
     return [c for c in out if c != name]
 
 
+def side_of(name: str, names: list[str]) -> str | None:
+    """``"left"`` or ``"right"`` for a joint whose mirror counterpart is among ``names``, else None."""
+    if not any(c in names for c in _swapped(name)):
+        return None
+    left = any(t in name for t in ("Left", "left", "L_", "l_")) or (name[:1] == "L" and name[1:2].isupper())
+    return "left" if left else "right"
+
+
 @dataclass
 class Skeleton:
     """A kinematic tree in depth-first order (every parent comes before its children).

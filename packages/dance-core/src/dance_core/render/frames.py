@@ -12,14 +12,11 @@ LEFT, RIGHT, CENTER = "#e4572e", "#2e86ab", "#333333"
 
 
 def bone_colors(names: list[str], parents: list[int]) -> list[str]:
-    """Left limbs orange, right limbs blue, the rest dark."""
-    out = []
-    for n in names:
-        low = n.lower()
-        side = LEFT if low.startswith(("l_", "left", "l")) and not low.startswith("lower") else None
-        side = RIGHT if low.startswith(("r_", "right", "r")) else side
-        out.append(side or CENTER)
-    return out
+    """Left limbs orange, right limbs blue (joints with a mirror counterpart), the rest dark."""
+    from dance_core.motion.skeleton import side_of
+
+    colors = {"left": LEFT, "right": RIGHT, None: CENTER}
+    return [colors[side_of(n, names)] for n in names]
 
 
 def floor_lines(positions: np.ndarray, spacing: float) -> list[np.ndarray]:
