@@ -50,23 +50,23 @@ def render_frames(
     ax.set_xlim(-1, 1)
     ax.set_ylim(-1, 1)
     ax.set_axis_off()
-    grid = [ax.plot([], [], color="#cccccc", lw=0.8)[0] for _ in floor_lines(positions, body / 2)]
-    grid_pts = floor_lines(positions, body / 2)
+    from matplotlib.collections import LineCollection
+
+    grid_pts = np.stack(floor_lines(positions, body / 2))  # (L, 2, 3)
+    grid = ax.add_collection(LineCollection([], colors="#cccccc", linewidths=0.8))
     colors = bone_colors(names, parents)
-    bones = [(j, p) for j, p in enumerate(parents) if p >= 0]
-    lines = [ax.plot([], [], color=colors[j], lw=3, solid_capstyle="round")[0] for j, _ in bones]
+    bones = np.array([(p, j) for j, p in enumerate(parents) if p >= 0])
+    lines = ax.add_collection(LineCollection([], colors=[colors[j] for _, j in bones], linewidths=3,
+                                             capstyle="round"))
     joints = ax.plot([], [], "o", color="#222222", ms=2.5)[0]
     path = ax.plot([], [], color="#8bc34a", lw=1.5, alpha=0.8)[0]
     label = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=9, color="#555555")
     ground_y = positions[..., 1].min()
     trail_len = int(3 * fps)
     for t in range(len(positions)):
-        for line, pts in zip(grid, grid_pts, strict=True):
-            xy = cam.project(pts, t)
-            line.set_data(xy[:, 0], xy[:, 1])
+        grid.set_segments(cam.project(grid_pts, t))
         xy = cam.project(positions[t], t)
-        for line, (j, p) in zip(lines, bones, strict=True):
-            line.set_data([xy[p, 0], xy[j, 0]], [xy[p, 1], xy[j, 1]])
+        lines.set_segments(xy[bones])
         joints.set_data(xy[:, 0], xy[:, 1])
         if trail:
             tr = positions[max(0, t - trail_len) : t + 1, 0].copy()
