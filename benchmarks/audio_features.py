@@ -74,6 +74,27 @@ def in_process(path: Path, names: list[str], repeats: int = 3) -> float:
     return statistics.median(times[1:])
 
 
+def per_extractor(path: Path) -> list[tuple[str, float]]:
+    """Warm seconds of each extractor alone on the loaded song (decoding excluded)."""
+    from dance_core.data.features import load_audio
+    from dance_core.media import FeatureInputs
+    from dance_core.registry import get_registry
+
+    reg = get_registry()
+    rows = []
+    for name in ["mel", "onset", "madmom-downbeat", "beats", "librosa-438"]:
+        ext = reg.get("feature", name).build()
+        times = []
+        for _ in range(3):
+            audio = load_audio(path, reg)  # a new Audio object: the spectrogram/activation caches miss
+            inputs = FeatureInputs(n_frames=audio.n_frames(FPS), audio=audio)
+            t0 = time.perf_counter()
+            ext.extract(inputs, FPS)
+            times.append(time.perf_counter() - t0)
+        rows.append((name, statistics.median(times[1:])))
+    return rows
+
+
 def subprocess_run(path: Path, names: list[str], numba_dir: str | None = None) -> tuple[float, float]:
     """(wall seconds of a whole fresh ``python`` process, seconds inside it from first import)."""
     env = dict(os.environ)
@@ -130,6 +151,10 @@ def main() -> None:
             fresh, _ = subprocess_run(path, names)
             first, _ = subprocess_run(path, names, numba_dir=tempfile.mkdtemp(dir=tmp))
             print(f"| {label} | {warm:.2f} s | {fresh:.2f} s | {first:.2f} s |")
+        print("\n| extractor alone, warm (60 s song) | seconds |")
+        print("|---|---|")
+        for name, secs in per_extractor(path):
+            print(f"| {name} | {secs:.2f} |")
         r = madmom_vs_port(path)
         print("\n| RNNDownBeatProcessor, 60 s | seconds | speed-up | max abs difference |")
         print("|---|---|---|---|")

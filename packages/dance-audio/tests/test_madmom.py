@@ -98,6 +98,17 @@ def test_restricted_unpickler_refuses_foreign_globals(tmp_path):
         _load(path)
 
 
+def test_port_without_madmom_gives_an_install_hint(monkeypatch):
+    import importlib.util
+
+    from dance_audio.madmom_weights import load_downbeat_ensemble
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "madmom" else real(name, *a))
+    with pytest.raises(PluginError, match="madmom is not installed"):
+        load_downbeat_ensemble()
+
+
 def test_missing_madmom_gives_an_install_hint(monkeypatch):
     import dance_audio.madmom_compat as compat
 

@@ -9,7 +9,7 @@ import numpy as np
 from dance_core.errors import DataError
 from dance_core.media import Audio, FeatureInputs
 
-from .timing import resample
+from .timing import resample, retime
 
 RATE, NATIVE_FPS = 44100, 100.0
 _cache: dict[str, Any] = {"key": None, "audio": None, "value": None}
@@ -44,8 +44,6 @@ def resample_activation(x: np.ndarray, src_fps: float, n_frames: int, fps: float
     the maximum over the source frames nearest to it (times within half a target frame of i / fps),
     so a beat peak between two target frames keeps its height instead of being skipped or halved.
     """
-    from .timing import retime
-
     if fps >= src_fps or len(x) == 0:
         return retime(x, src_fps, n_frames, fps)
     owner = np.floor(np.arange(len(x)) * fps / src_fps + 0.5).astype(np.int64)  # nearest target frame
