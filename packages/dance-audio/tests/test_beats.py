@@ -63,3 +63,22 @@ def test_beat_features_mark_beats_and_phases(sample, annotated_beats):
     np.testing.assert_allclose(feats[:, 2] ** 2 + feats[:, 3] ** 2, 1.0, atol=1e-5)
     # on a beat frame the beat phase is close to 0 (sin ~ 0, cos ~ 1)
     assert np.all(feats[beat_frames, 3] > 0.9)
+
+
+def test_downbeat_and_beat_features_on_clicks_at_known_times(make_clicks):
+    if not madmom_available():
+        pytest.skip("the madmom extra is not installed")
+    from dance_audio.downbeat import DownbeatFeatures
+
+    fps = 30.0
+    clicks = np.arange(1.0, 11.5, 0.5)  # 120 BPM
+    audio = make_clicks(clicks, 12.0)
+    inputs = FeatureInputs(n_frames=audio.n_frames(fps), audio=audio)
+    act = DownbeatFeatures().extract(inputs, fps)
+    assert act.shape == (360, 2) and np.all((act >= 0) & (act <= 1))
+    beat_or_downbeat = act.sum(axis=1)
+    for t in clicks[2:-2]:  # each click is a local activation peak within a frame of its time
+        f = int(round(t * fps))
+        assert abs(int(np.argmax(beat_or_downbeat[f - 5 : f + 6])) - 5) <= 1
+    beats = track_beats(audio)
+    assert f_measure(beats.times, clicks) >= 0.9
