@@ -93,3 +93,15 @@ def test_silence_and_short_clips_warn_but_load(tmp_path):
     text = " ".join(str(w.message) for w in caught)
     assert "silent" in text and "0.50 s long" in text
     assert audio.duration == pytest.approx(0.5)
+
+
+def test_audioread_fallback_decodes_when_libsndfile_cannot(monkeypatch, audio_dir, sample):
+    import dance_audio.reader as reader
+
+    def refuse(path):
+        raise RuntimeError("Format not recognised.")
+
+    monkeypatch.setattr(reader, "_read_soundfile", refuse)
+    audio = SoundFileReader().read(audio_dir / "sample.wav")  # audioread's stdlib backend reads WAV
+    assert audio.rate == sample.rate
+    np.testing.assert_allclose(audio.samples, sample.samples, atol=1e-6)
