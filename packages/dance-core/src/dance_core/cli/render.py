@@ -28,12 +28,12 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Render every ``--out`` file."""
-    from dance_core.compose import read_motion
+    from dance_core.data.files import read_motion_file
     from dance_core.errors import DataError
     from dance_core.registry import get_registry
     from dance_core.render.preview import render
 
-    data = read_motion(args.motion, get_registry())
+    data = read_motion_file(args.motion, get_registry())
     motion = data.skeleton_motion
     if motion is None:
         raise DataError(f"{args.motion}: has no skeleton to draw (a plain feature file); render a BVH or pickle")
