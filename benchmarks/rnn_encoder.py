@@ -2,7 +2,7 @@
 generation speed of the LSTM decoder for a 60 s song.
 
 Every measurement runs in a fresh Python process so that the peak resident set size (``ru_maxrss``)
-belongs to it alone. ``--dense`` swaps the banded kernel for the dense ``n × n`` masked softmax,
+belongs to it alone. The dense rows swap the banded kernel for the dense ``n × n`` masked softmax,
 to show what the banded one saves.
 
     .venv/bin/python benchmarks/rnn_encoder.py            # the tables of benchmarks/README.md
@@ -66,11 +66,13 @@ def measure_encoder(minutes: float, dense: bool) -> dict:
     return {"minutes": minutes, "frames": n, "dense": dense, "seconds": seconds, "peak_mb": peak_mb() - before}
 
 
-def measure_generation(recipe_name: str, seconds: float) -> dict:
+def measure_generation(recipe_name: str, seconds: float, threads: int) -> dict:
     """Generate one dance for ``seconds`` of music (encoder once, then frame-by-frame LSTM)."""
     import torch
 
     from dance_core.recipe import load_recipe
+
+    torch.set_num_threads(threads)
 
     recipe = load_recipe(recipe_name)
     fps = recipe.fps
@@ -84,7 +86,14 @@ def measure_generation(recipe_name: str, seconds: float) -> dict:
     out = model.generate({"music": music}, n, seed, generator=torch.Generator().manual_seed(0))
     took = time.perf_counter() - start
     assert out.shape == (1, n, 50)
-    return {"recipe": recipe_name, "fps": fps, "frames": n, "seconds": took, "realtime": seconds / took}
+    return {
+        "recipe": recipe_name,
+        "fps": fps,
+        "frames": n,
+        "seconds": took,
+        "realtime": seconds / took,
+        "threads": threads,
+    }
 
 
 def child(args: list[str]) -> dict:
@@ -104,7 +113,7 @@ def main() -> None:
         if kind == "encoder":
             print(json.dumps(measure_encoder(float(rest[0]), rest[1] == "dense")))
         else:
-            print(json.dumps(measure_generation(rest[0], float(rest[1]))))
+            print(json.dumps(measure_generation(rest[0], float(rest[1]), int(rest[2]))))
         return
     import torch
 
@@ -126,11 +135,15 @@ def main() -> None:
             f"| {minutes:g} min | {r['frames']} | dense n×n mask | {r['seconds']:.2f} | {r['peak_mb']:.0f} | "
             f"{r['peak_mb'] / minutes:.0f} |"
         )
-    print("\n| recipe | 60 s song | time (s) | × real time |")
-    print("|---|---|---|---|")
+    print("\n| recipe | 60 s song | torch threads | time (s) | × real time |")
+    print("|---|---|---|---|---|")
     for name in ("dancerevolution-small", "dancerevolution"):
-        r = child(["generate", name, "60"])
-        print(f"| {name} | {r['frames']} frames at {r['fps']:g} fps | {r['seconds']:.2f} | {r['realtime']:.1f} |")
+        for threads in (1, 2):
+            r = child(["generate", name, "60", str(threads)])
+            print(
+                f"| {name} | {r['frames']} frames at {r['fps']:g} fps | {threads} | {r['seconds']:.2f} | "
+                f"{r['realtime']:.1f} |"
+            )
 
 
 if __name__ == "__main__":
