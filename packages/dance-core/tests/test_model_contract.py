@@ -116,3 +116,27 @@ def test_windowed_multi_frame_head_keeps_k_frames():
     assert out.shape == (1, 31, 18)
     assert len(calls) == 11 and calls[0] == (1, 10, 18)  # (31 - 10) / 2 steps, rounded up
     assert model.segment_frames(None) == 10 + 6  # motion_past + max(frames, cond_future)
+
+
+class TwoFrameHead(StatefulHead):
+    """Needs exactly 2 latent tokens per step (one per frame), like a flow over 2 frames."""
+
+    frames, keep, history_frames, latent_tokens = 2, 2, 1, 2
+
+    def loss(self, latent, target, history, ctx):
+        self.seen = (latent, target, history)
+        return {"loss": latent.mean()}
+
+
+def test_song_level_encoder_feeds_a_k_token_head_aligned_windows():
+    from dance_core.model import ComposedModel
+
+    model = ComposedModel({}, SongEncoder({"music": 4}), TwoFrameHead(18, 16))
+    motion, music = torch.randn(3, 9, 18), torch.randn(3, 9, 4)
+    model.training_loss(motion, {"music": music}, TrainContext(step=0, epoch=0))
+    latent, target, history = model.head.seen
+    full = model.encoder(None, {"music": music})
+    assert latent.shape == (12, 2, 16) and target.shape == (12, 2, 18) and history.shape == (12, 1, 18)
+    for w, s in enumerate((1, 3, 5, 7)):  # windows after the history frame, folded batch-major
+        assert torch.equal(target[w::4], motion[:, s : s + 2]) and torch.equal(history[w::4], motion[:, s - 1 : s])
+        assert torch.equal(latent[w::4], full[:, s : s + 2])
