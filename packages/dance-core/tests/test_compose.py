@@ -1,4 +1,5 @@
 import math
+import re
 
 import numpy as np
 import pytest
@@ -72,7 +73,7 @@ def test_bad_music_gives_one_line_errors(tiny_recipe, checkpoint, tmp_path):
     cases = {
         "missing.wav": "audio file not found",
         "empty.wav": "audio file is empty",
-        "corrupt.wav": "not a WAV file",
+        "corrupt.wav": "not a WAV file|cannot decode audio",  # core's reader, or dance-audio's
         "song.xyz": "no audio reader for '.xyz'",
     }
     (tmp_path / "empty.wav").write_bytes(b"")
@@ -87,7 +88,7 @@ def test_bad_music_gives_one_line_errors(tiny_recipe, checkpoint, tmp_path):
                 out_dir=str(tmp_path / "o"),
                 quiet=True,
             )
-        assert message in str(err.value) and name in str(err.value) and "\n" not in str(err.value)
+        assert re.search(message, str(err.value)) and name in str(err.value) and "\n" not in str(err.value)
     short = song(tmp_path / "tiny.wav", 0.2)
     with pytest.raises(DataError, match="0.20 s long"):
         compose(recipe, music=[short], checkpoint=str(checkpoint), out_dir=str(tmp_path / "o"), quiet=True)
