@@ -140,3 +140,22 @@ def test_song_level_encoder_feeds_a_k_token_head_aligned_windows():
     for w, s in enumerate((1, 3, 5, 7)):  # windows after the history frame, folded batch-major
         assert torch.equal(target[w::4], motion[:, s : s + 2]) and torch.equal(history[w::4], motion[:, s - 1 : s])
         assert torch.equal(latent[w::4], full[:, s : s + 2])
+
+
+def test_regression_head_after_a_song_level_encoder_predicts_every_frame(tmp_path):
+    with registered_plugin(Plugin(), "contract"):
+        recipe = load_recipe(
+            "core-synthetic",
+            [*SMALL, "model.encoder={plugin: test-song}", "data.segment_frames=20", "training.steps=80"],
+        )
+        trainer = Trainer(recipe, tmp_path, quiet=True)
+        motion, streams = trainer.sampler.batch(0)
+        ctx = TrainContext(step=0, epoch=0)
+        cond = trainer.model.condition(streams)
+        latent = trainer.model.encoder(None, cond)
+        pred = trainer.model.head.predict(latent)
+        assert pred.shape == motion.shape  # one frame per latent frame, not one broadcast frame
+        loss = trainer.model.training_loss(motion, streams, ctx)["loss"]
+        assert torch.allclose(loss, (pred - motion).abs().mean())
+        out = trainer.model.generate(streams, 20, torch.zeros(8, 0, 18))
+    assert out.shape == (8, 20, 18)

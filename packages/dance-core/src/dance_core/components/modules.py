@@ -78,20 +78,25 @@ class RegressionHead(nn.Module):
     history_frames = 0
     latent_tokens = None
 
-    def __init__(self, config, motion_dim: int, latent_dim: int, latent_tokens: int | None):
+    def __init__(
+        self, config, motion_dim: int, latent_dim: int, latent_tokens: int | None, aligned: bool = False
+    ):
         super().__init__()
         self.frames = config.frames
         self.keep = config.keep or config.frames
         self.motion_dim = motion_dim
         self.loss_kind = config.loss
+        self.aligned = aligned  # a song-level encoder's per-frame latent: one output frame per latent frame
         tokens = latent_tokens or config.frames
-        self.per_token = tokens == config.frames
+        self.per_token = aligned or tokens == config.frames
         width = latent_dim if self.per_token else latent_dim * tokens
         out = motion_dim if self.per_token else motion_dim * config.frames
         self.net = mlp([width, config.hidden, out])
 
     def predict(self, latent: torch.Tensor) -> torch.Tensor:
-        """``(B, K, d) -> (B, frames, D)``."""
+        """``(B, K, d) -> (B, frames, D)``; aligned latents ``(B, T, d) -> (B, T, D)``."""
+        if self.aligned:
+            return self.net(latent)
         if self.per_token:
             return self.net(latent[:, : self.frames])
         return self.net(latent.flatten(1)).view(latent.shape[0], self.frames, self.motion_dim)
@@ -116,7 +121,8 @@ class RegressionHead(nn.Module):
 
 
 def build_regression_head(
-    config, *, motion_dim: int, latent_dim: int, latent_tokens: int | None = None, **_: Any
+    config, *, motion_dim: int, latent_dim: int, latent_tokens: int | None = None, window: Window | None = None, **_: Any
 ) -> RegressionHead:
-    """Build the ``regression`` head."""
-    return RegressionHead(config, motion_dim, latent_dim, latent_tokens)
+    """Build the ``regression`` head (frame-aligned after a song-level encoder)."""
+    aligned = window is not None and window.song_level
+    return RegressionHead(config, motion_dim, latent_dim, latent_tokens, aligned)
