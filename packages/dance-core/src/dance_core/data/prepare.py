@@ -50,7 +50,7 @@ def encode_sources(recipe: Recipe, sources: list[ClipSource]) -> list[ClipSource
             versions.append((f"{s.name}-mirrored", versions[0][1].mirrored()))
         for name, m in versions:
             data = MotionData(rep.encode(m), recipe.fps, rep.channels(ref), dict(s.motion.meta), m)
-            out.append(replace(s, name=name, motion=data))
+            out.append(replace(s, name=name, motion=data, meta={**s.meta, "song": s.name}))
     return out
 
 
@@ -112,7 +112,7 @@ def to_clip(source: ClipSource, stack: FeatureStack, registry: Registry) -> Clip
         if streams:
             check_durations(source, len(values), len(next(iter(streams.values()))), stack.fps)
         n = min(len(values), *(len(v) for v in streams.values())) if streams else len(values)
-        return Clip(source.name, values[:n], {k: v[:n] for k, v in streams.items()})
+        return Clip(source.name, values[:n], {k: v[:n] for k, v in streams.items()}, source.meta.get("song", ""))
     audio = source.audio
     if audio is None and source.audio_path is not None:
         audio = load_audio(source.audio_path, registry)
@@ -120,7 +120,7 @@ def to_clip(source: ClipSource, stack: FeatureStack, registry: Registry) -> Clip
         check_durations(source, len(values), audio.n_frames(stack.fps), stack.fps)
     n = len(values) if audio is None else min(len(values), audio.n_frames(stack.fps))
     streams = stack.extract(n, audio, source.texts)
-    return Clip(source.name, values[:n], streams)
+    return Clip(source.name, values[:n], streams, source.meta.get("song", ""))
 
 
 def check_durations(source: ClipSource, motion_frames: int, audio_frames: int, fps: float) -> None:

@@ -10,16 +10,13 @@ from dance_core.errors import DataError
 
 
 def split_clips(clips: list[Clip], val_fraction: float, seed: int) -> tuple[list[Clip], list[Clip]]:
-    """Hold out whole clips (songs) for validation; at least one on each side when possible."""
-    order = np.random.default_rng([seed, 7]).permutation(len(clips))
-    n_val = int(round(len(clips) * val_fraction))
-    if val_fraction > 0 and len(clips) > 1:
-        n_val = min(max(n_val, 1), len(clips) - 1)
-    else:
-        n_val = 0
-    val = [clips[i] for i in sorted(order[:n_val])]
-    train = [clips[i] for i in sorted(order[n_val:])]
-    return train, val
+    """Hold out whole songs for validation (with every clip of them); one song each side when possible."""
+    songs = sorted({c.song for c in clips})
+    order = np.random.default_rng([seed, 7]).permutation(len(songs))
+    n_val = int(round(len(songs) * val_fraction))
+    n_val = min(max(n_val, 1), len(songs) - 1) if val_fraction > 0 and len(songs) > 1 else 0
+    held = {songs[i] for i in order[:n_val]}
+    return [c for c in clips if c.song not in held], [c for c in clips if c.song in held]
 
 
 class SegmentSampler:

@@ -29,6 +29,10 @@ class Clip:
     name: str
     motion: np.ndarray
     streams: dict[str, np.ndarray]
+    song: str = ""  # clips of one song (e.g. a mirrored copy) stay on one side of the split
+
+    def __post_init__(self) -> None:
+        self.song = self.song or self.name
 
     def __len__(self) -> int:
         return len(self.motion)

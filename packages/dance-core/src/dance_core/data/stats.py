@@ -58,6 +58,7 @@ class NormStats:
             clip.name,
             self.motion.apply(clip.motion),
             {n: self.streams[n].apply(v) for n, v in clip.streams.items()},
+            clip.song,
         )
 
     def to_arrays(self) -> dict[str, np.ndarray]:
