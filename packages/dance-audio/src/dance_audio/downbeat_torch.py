@@ -65,7 +65,7 @@ class DownbeatEnsemble(torch.nn.Module):
         w_rec, peep = getattr(self, f"w_rec{k}"), getattr(self, f"peep{k}")
         hidden = w_rec.shape[1]
         h = x.new_zeros(2 * n, 1, hidden)
-        c = x.new_zeros(2 * n, hidden)
+        c = x.new_zeros(2 * n, 1, hidden)
         outs = []
         for lo in range(0, steps, CHUNK):
             pre = self._projection(x, k, lo, min(lo + CHUNK, steps))
@@ -95,22 +95,20 @@ def _peephole_lstm(
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """Run peephole LSTM chains over ``pre``'s steps from state ``(h, c)``; returns outputs and the end state.
 
-    Gates i and f see the previous cell state, gate o the new one (madmom's LSTMLayer).
+    Shapes: ``pre (chains, steps, 4H)``, ``h`` and ``c (chains, 1, H)``, ``peep (chains, 3, H)``.
+    Gates i and f see the previous cell state, gate o the new one (madmom's LSTMLayer). Everything
+    stays 3-D so a step is only the gate arithmetic (no reshapes or indexed writes).
     """
-    chains, steps = pre.shape[0], pre.shape[1]
-    hidden = w_rec.shape[1]
-    p_i, p_f, p_o = peep[:, 0], peep[:, 1], peep[:, 2]
-    out = pre.new_empty(chains, steps, hidden)
-    for t in range(steps):
-        g = torch.baddbmm(pre[:, t : t + 1], h, w_rec).squeeze(1)
-        gi, gf, gc, go = g.chunk(4, dim=1)
+    p_i, p_f, p_o = peep[:, 0:1], peep[:, 1:2], peep[:, 2:3]
+    outs: list[torch.Tensor] = []
+    for t in range(pre.shape[1]):
+        gi, gf, gc, go = torch.baddbmm(pre[:, t : t + 1], h, w_rec).chunk(4, dim=2)
         c = torch.addcmul(
             c * torch.sigmoid(torch.addcmul(gf, c, p_f)), torch.tanh(gc), torch.sigmoid(torch.addcmul(gi, c, p_i))
         )
-        h_t = torch.tanh(c) * torch.sigmoid(torch.addcmul(go, c, p_o))
-        out[:, t] = h_t
-        h = h_t.unsqueeze(1)
-    return out, h, c
+        h = torch.tanh(c) * torch.sigmoid(torch.addcmul(go, c, p_o))
+        outs.append(h)
+    return torch.cat(outs, dim=1), h, c
 
 
 def _recurrence():
