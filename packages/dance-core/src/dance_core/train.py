@@ -94,7 +94,13 @@ class Trainer:
         seed_everything(recipe.seed)
         self.stack = FeatureStack(recipe)
         sources = dataset_sources(recipe)
-        clips = [to_clip(s, self.stack, self.registry) for s in sources]
+        clips = []
+        with progress_bar(quiet) as bar:
+            task = bar.add_task("features", total=len(sources), info="") if bar else None
+            for source in sources:
+                clips.append(to_clip(source, self.stack, self.registry))
+                if bar:
+                    bar.update(task, advance=1, info=source.name)
         train, val = split_clips(clips, recipe.data.val_fraction, recipe.seed)
         self.stats = NormStats.fit(train)
         train = [self.stats.apply(c) for c in train]
