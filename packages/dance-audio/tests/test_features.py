@@ -88,3 +88,29 @@ def test_mel_filterbank_equals_librosa(rate, n_fft, n_mels, fmin, fmax):
     ours = mel_filterbank(rate, n_fft, n_mels, fmin, fmax)
     theirs = librosa.filters.mel(sr=rate, n_fft=n_fft, n_mels=n_mels, fmin=fmin, fmax=fmax)
     np.testing.assert_allclose(ours, theirs, rtol=1e-5, atol=1e-8)
+
+
+def test_librosa_438_equals_the_reference_recipe_on_real_music(sample):
+    """The DanceRevolution extractor's calls, with librosa's defaults, at 15360 Hz (30 fps)."""
+    from dance_audio.numba_cache import import_librosa
+    from dance_audio.timing import resample
+
+    librosa = import_librosa()
+    sr = 15360
+    y = resample(sample.samples, sample.rate, sr)
+    mfcc = librosa.feature.mfcc(S=librosa.power_to_db(librosa.feature.melspectrogram(y=y, sr=sr), ref=np.max))
+    delta = librosa.feature.delta(mfcc, width=3)
+    harmonic, percussive = librosa.effects.hpss(y)
+    chroma = librosa.feature.chroma_cqt(y=harmonic, sr=sr, n_chroma=12)
+    onset = librosa.onset.onset_strength(y=percussive, aggregate=np.median, sr=sr)
+    _, beats = librosa.beat.beat_track(onset_envelope=onset, sr=sr)
+    beat = np.zeros_like(onset)
+    beat[beats] = 1.0
+    tempogram = librosa.feature.tempogram(onset_envelope=onset, sr=sr, win_length=384)
+    reference = np.concatenate([mfcc, delta, chroma, onset[None], beat[None], tempogram], axis=0).T
+
+    n = sample.n_frames(30.0)
+    ours = Librosa438().extract(FeatureInputs(n_frames=n, audio=sample), 30.0)
+    assert ours.shape == (n, 438) and len(reference) >= n
+    np.testing.assert_allclose(ours, reference[:n], rtol=1e-4, atol=1e-4)
+    assert ours[:, 53].sum() >= 3  # real beats were found
