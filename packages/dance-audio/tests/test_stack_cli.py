@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from safetensors.numpy import load_file, save_file
 
 from dance_core.cli.main import main
@@ -67,3 +68,18 @@ def test_dance_features_cli_bad_file_is_one_line(tmp_path, capsys):
     code = main(["features", str(bad), "-o", str(tmp_path / "f.npz")])
     err = capsys.readouterr().err.strip()
     assert code != 0 and len(err.splitlines()) == 1 and "song.ogg" in err
+
+
+@pytest.mark.parametrize("name", ["mel", "onset", "madmom-downbeat", "beats", "librosa-438"])
+def test_every_music_extractor_handles_silence_and_very_short_clips(registry, name):
+    from dance_audio.madmom_compat import madmom_available
+    from dance_core.media import Audio, FeatureInputs
+
+    if name in ("madmom-downbeat", "beats") and not madmom_available():
+        pytest.skip("the madmom extra is not installed")
+    noise = 0.1 * np.random.default_rng(0).standard_normal(int(0.6 * 22050))
+    for audio in (Audio(np.zeros(2 * 44100, np.float32), 44100), Audio(noise.astype(np.float32), 22050)):
+        inputs = FeatureInputs(n_frames=audio.n_frames(30.0), audio=audio)
+        extractor = registry.get("feature", name).build()
+        feats = extractor.extract(inputs, 30.0)
+        assert feats.shape == (inputs.n_frames, extractor.dim()) and np.all(np.isfinite(feats))

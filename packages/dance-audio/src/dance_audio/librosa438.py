@@ -10,6 +10,7 @@ harmonic part, onset strength with a median over mel bands of the percussive par
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
@@ -45,9 +46,19 @@ class Librosa438:
         return int(round(rate))
 
     def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
-        """``(n_frames, 438)`` float32 features at times i / fps."""
+        """``(n_frames, 438)`` float32 features at times i / fps.
+
+        librosa's own warnings on silent or very short input (no pitch to estimate the tuning
+        from, CQT windows longer than the clip) are silenced: the reader already warns once about
+        such audio, and the features stay finite and well defined.
+        """
         if inputs.audio is None:
             raise DataError("librosa-438 needs audio")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            return self._extract(inputs, fps)
+
+    def _extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
         librosa = import_librosa()
         sr = self.rate(fps)
         y = resample(inputs.audio.samples, inputs.audio.rate, sr)
