@@ -24,10 +24,8 @@ $(STAMP): requirements-dev.txt $(PYPROJECTS)
 
 demo: $(STAMP)
 	$(DANCE) plugins
-	$(DANCE) recipe validate core-synthetic
-	$(DANCE) train core-synthetic --out runs/core-synthetic
-	$(DANCE) synth out/click-120bpm.wav --bpm 120 --seconds 20
-	$(DANCE) compose core-synthetic --checkpoint runs/core-synthetic/model.safetensors --music out/click-120bpm.wav --out out
+	$(DANCE) synth --out out/demo-song --songs 1 --seconds 30 --seed 7
+	$(DANCE) compose default --music out/demo-song/synth-0000.wav --out out
 
 test: $(STAMP)
 	$(PY) -m pytest

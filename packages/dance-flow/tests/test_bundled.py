@@ -1,0 +1,85 @@
+"""The bundled model: it loads, matches its recipe, and composes dances on CPU."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dance_core.checkpoint import load_checkpoint
+from dance_core.compose import compose, read_motion
+from dance_core.recipe import load_recipe
+from dance_core.registry import get_registry
+
+BUNDLED = Path(__file__).resolve().parents[1] / "src" / "dance_flow" / "bundled" / "transflower-small.safetensors"
+FIXTURES = Path(__file__).resolve().parents[3].parent / "shared" / "fixtures" / "audio"
+
+
+def test_the_bundled_weights_are_small_and_match_the_default_recipe():
+    assert BUNDLED.stat().st_size <= 20 * 2**20
+    recipe = load_recipe("default")
+    assert recipe.name == "transflower-small"
+    assert Path(recipe.resolve_path(recipe.compose.checkpoint)).resolve() == BUNDLED.resolve()
+    ckpt = load_checkpoint(BUNDLED)
+    assert ckpt.recipe["model"] == recipe.model_dict()["model"]
+    assert ckpt.step == recipe.training.steps
+
+
+def test_the_bundled_model_composes_several_songs_and_samples(tmp_path):
+    from dance_core.components.wav import write_wav
+    from dance_core.data.synth_music import synthesize
+
+    songs = []
+    for seconds, name in ((3.0, "short"), (4.5, "long")):
+        rng = np.random.default_rng(11)
+        song = synthesize(seconds, 110.0, 22050, rng)
+        songs.append(tmp_path / f"{name}.wav")
+        write_wav(songs[-1], song.audio, 22050)
+    recipe = load_recipe("default", ["compose.samples=2", "compose.formats=[bvh, npz]"])
+    written = compose(recipe, music=[str(s) for s in songs], out_dir=str(tmp_path / "out"), quiet=True)
+    bvhs = sorted(p for p in written if p.suffix == ".bvh")
+    assert [p.name for p in bvhs] == ["long-0.bvh", "long-1.bvh", "short-0.bvh", "short-1.bvh"]
+    registry = get_registry()
+    lengths = {p.name: read_motion(p, registry).values.shape[0] for p in bvhs}
+    assert lengths["short-0.bvh"] == 60 and lengths["long-0.bvh"] == 90  # whole songs at 20 fps
+    a, b = (read_motion(tmp_path / "out" / f"long-{k}.bvh", registry).values for k in (0, 1))
+    assert np.all(np.isfinite(a)) and not np.allclose(a[40:], b[40:])  # two different samples
+    assert a[40:].std(0).max() > 1e-3  # it moves after the rest-pose seed
+
+
+def test_the_bundled_model_dances_to_a_real_song(tmp_path):
+    song = FIXTURES / "vibe_ace.ogg"
+    if not song.exists():
+        pytest.skip(f"fixture {song} not available")
+    recipe = load_recipe("default", ["compose.seconds=4"])
+    written = compose(recipe, music=[str(song)], out_dir=str(tmp_path), quiet=True)
+    assert {p.suffix for p in written} == {".bvh", ".html"}
+    motion = read_motion(tmp_path / "vibe_ace.bvh", get_registry())
+    assert motion.values.shape[0] == 80 and motion.fps == 20 and np.all(np.isfinite(motion.values))
+
+
+def test_built_in_seeds_prompt_the_dance(tmp_path, demo_wav):
+    outs = {}
+    for seed in ("rest", "seeds/claps.bvh", "seeds/walks.bvh"):
+        recipe = load_recipe(
+            "default", [f"compose.seed_motion={seed}", "compose.formats=[npz]", "compose.temperature=0"]
+        )
+        (path,) = compose(recipe, music=[str(demo_wav)], out_dir=str(tmp_path / seed.replace("/", "-")), quiet=True)
+        data = np.load(path)
+        outs[seed] = data[[k for k in data.files if data[k].ndim == 2][0]]
+    rest, claps, walks = outs["rest"], outs["seeds/claps.bvh"], outs["seeds/walks.bvh"]
+    assert not np.allclose(rest[:40], claps[:40]) and not np.allclose(claps[:40], walks[:40])
+    assert not np.allclose(claps[40:], walks[40:])  # the prompt changes what follows
+
+
+@pytest.fixture
+def demo_wav(tmp_path):
+    """A 3-second synthesized song."""
+    from dance_core.components.wav import write_wav
+    from dance_core.data.synth_music import synthesize
+
+    song = synthesize(3.0, 120.0, 22050, np.random.default_rng(3))
+    path = tmp_path / "demo.wav"
+    write_wav(path, song.audio, 22050)
+    return path
