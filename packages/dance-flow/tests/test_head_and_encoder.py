@@ -187,3 +187,19 @@ def test_moglow_context_sees_exactly_its_recent_frames():
         out2 = enc(motion, {"music": music2})
     assert out.shape == (1, 2, 6)
     assert torch.allclose(out[:, 0], out2[:, 0]) and not torch.allclose(out[:, 1], out2[:, 1])
+
+
+def test_residual_head_models_frames_relative_to_the_last_one():
+    torch.manual_seed(0)
+    cfg = FlowHeadConfig(frames=N, steps=2, residual=True, coupling=CouplingConfig(dim=8, layers=1, heads=2))
+    head = FlowHead(cfg, D, H).eval()
+    assert head.history_frames == 1
+    h, x = _toy(4, torch.Generator().manual_seed(0))
+    last = torch.randn(4, 1, D)
+    with torch.no_grad():
+        loss = head.loss(h, x + last, last, CTX)["loss"]
+        direct = -head.log_prob(x, h).mean() / (N * D * math.log(2))
+        frames, _ = head.step(h, last, None, 0.0, None)
+        cold, _ = head.sample(h, 0.0)
+    assert loss.item() == pytest.approx(direct.item(), rel=1e-5)
+    assert torch.allclose(frames, cold + last, atol=1e-6)

@@ -102,6 +102,8 @@ class FlowHeadConfig(ComponentConfig):
 
     ``noise`` jitters training targets so that constant or nearly constant motion channels (joints
     that never move) have a bounded density instead of pulling the likelihood to infinity.
+    ``residual`` models ``x_{t+i} - x_{t-1}`` (a translation: the likelihood of the frames is the same
+    number), so the flow need not copy the last pose through the encoder.
     """
 
     frames: PositiveInt = 3
@@ -113,6 +115,7 @@ class FlowHeadConfig(ComponentConfig):
     base: Literal["gaussian", "student-t"] = "gaussian"
     df: PositiveFloat = 50.0
     noise: float = Field(0.01, ge=0.0, description="std of Gaussian noise added to training targets (normalized units)")
+    residual: bool = Field(False, description="model the frames minus the last frame before them")
 
     @model_validator(mode="after")
     def _keep(self):

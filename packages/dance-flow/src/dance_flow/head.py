@@ -16,10 +16,10 @@ class FlowHead(nn.Module):
     """Models ``p(x_t..x_{t+N-1} | h)`` with a flow; ``h`` is ``(B, N, d)`` (one token per frame,
     concatenated channel-wise inside every coupling). Loss: negative log-likelihood in bits/dim."""
 
-    history_frames = 0
-
     def __init__(self, config, motion_dim: int, latent_dim: int):
         super().__init__()
+        self.residual = config.residual
+        self.history_frames = 1 if config.residual else 0
         self.frames = config.frames
         self.keep = config.keep
         self.latent_tokens = config.frames
@@ -49,6 +49,8 @@ class FlowHead(nn.Module):
         """Negative log-likelihood in bits per dimension (and nats per frame, for logs); in training
         the targets get Gaussian noise of std ``noise``."""
         target = target.float()
+        if self.residual:
+            target = target - history[:, -1:].float()
         if self.training and self.noise > 0:
             target = target + self.noise * torch.randn_like(target)
         with torch.autocast(latent.device.type, enabled=False):
@@ -67,7 +69,8 @@ class FlowHead(nn.Module):
             latent = latent.float()
             shape = (latent.shape[0], self.frames, self.motion_dim)
             z = self.base.sample(shape, temperature, generator, latent.device, latent.dtype)
-            return self.flow.invert(z, latent), state
+            frames = self.flow.invert(z, latent)
+            return (frames + history[:, -1:].float() if self.residual else frames), state
 
     def finish(self, motion: torch.Tensor, state: Any) -> torch.Tensor:
         """Identity."""
