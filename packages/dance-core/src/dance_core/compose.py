@@ -105,7 +105,7 @@ def compose(
     if not songs_in:
         raise RecipeError(f"{recipe._origin}: compose.music: no song given (or pass --music)")
     formats = [motion_format(f, registry) for f in c.formats]
-    device = pick_device(c.device)
+    device = pick_device(c.device, c.threads)
     model, ckpt, stack = load_model(recipe, checkpoint, device)
     songs = [load_song(p, stack, ckpt, c.seconds, registry) for p in songs_in]
     start = model.start_frames()

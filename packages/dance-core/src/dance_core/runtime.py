@@ -13,8 +13,10 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from dance_core.errors import DanceError
 
 
-def pick_device(name: str = "auto") -> torch.device:
-    """``auto`` picks cuda, then mps, then cpu; an unavailable explicit device is an error."""
+def pick_device(name: str = "auto", threads: int | None = None) -> torch.device:
+    """``auto`` picks cuda, then mps, then cpu (an unavailable explicit device is an error); sets CPU threads."""
+    if threads is not None:
+        torch.set_num_threads(threads)
     cuda = torch.cuda.is_available()
     mps = getattr(torch.backends, "mps", None) is not None and torch.backends.mps.is_available()
     if name == "auto":

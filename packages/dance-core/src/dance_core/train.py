@@ -90,7 +90,7 @@ class Trainer:
         self.quiet = quiet
         self.t = recipe.training
         self.registry = get_registry()
-        self.device = pick_device(self.t.device)
+        self.device = pick_device(self.t.device, self.t.threads)
         seed_everything(recipe.seed)
         self.stack = FeatureStack(recipe)
         sources = dataset_sources(recipe)

@@ -86,6 +86,7 @@ class TrainingSpec(Strict):
     )
     grad_clip: PositiveFloat | None = 1.0
     device: Literal["auto", "cpu", "cuda", "mps"] = "auto"
+    threads: PositiveInt | None = Field(None, description="CPU threads for torch (default: torch's choice)")
     precision: Literal["auto", "fp32", "bf16", "fp16"] = "auto"
     val_every: PositiveInt = 200
     val_batches: PositiveInt = 4
@@ -114,6 +115,7 @@ class ComposeSpec(Strict):
     formats: list[str] = Field(default_factory=lambda: ["npz"])
     out_dir: str = "out"
     device: Literal["auto", "cpu", "cuda", "mps"] = "auto"
+    threads: PositiveInt | None = Field(None, description="CPU threads for torch (default: torch's choice)")
 
 
 class Recipe(Strict):
