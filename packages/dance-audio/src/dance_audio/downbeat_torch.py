@@ -1,25 +1,25 @@
 """A torch port of madmom's RNNDownBeatProcessor: the same 8 BLSTM networks, run as one batch.
 
-The ensemble's 8 networks x 2 directions become a batch of 16 independent peephole-LSTM chains
-with their own weights (batched matrix products), so each time step is a handful of tensor ops
-for the whole ensemble instead of madmom's 48 NumPy loops. The output is madmom's: the mean of
+The ensemble's 8 networks x 2 directions become 16 independent peephole-LSTM chains: torch computes
+each layer's input projections for all of them (batched matrix products), and a compiled numba
+kernel (``lstm_kernel``) runs the strictly sequential recurrence, instead of madmom's 48 NumPy
+loops of tiny per-step products. The output is madmom's: the mean of
 the networks' softmax outputs without the "no beat" column, i.e. (beat, downbeat) at 100 fps.
 """
 
 from __future__ import annotations
 
 import threading
-import warnings
 
 import numpy as np
 import torch
 
 from .downbeat_features import FPS, RATE, downbeat_input
+from .lstm_kernel import blstm_chunk
 from .madmom_weights import NetworkWeights, load_downbeat_ensemble
 
 _lock = threading.Lock()
 _model: DownbeatEnsemble | None = None
-_scripted = None
 CHUNK = 2048  # steps whose input projections are computed at once
 
 
@@ -51,34 +51,26 @@ class DownbeatEnsemble(torch.nn.Module):
         self.register_buffer("out_w", stack([n.out_w for n in nets]))
         self.register_buffer("out_b", stack([n.out_b for n in nets])[:, None, :])
 
-    def _projection(self, x: torch.Tensor, k: int, lo: int, hi: int) -> torch.Tensor:
-        """Input projections of steps ``lo:hi`` of every chain, ``(2N, hi - lo, 4H)``; ``x`` is ``(N, T, in)``."""
+    def _projections(self, x: torch.Tensor, k: int, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
+        """Input projections with bias, ``(N, hi - lo, 4H)`` each, in time order: the forward chains'
+        for steps ``lo:hi``, the backward chains' for steps ``T-hi:T-lo`` (they read the song from its end)."""
         steps = x.shape[1]
         fwd = torch.baddbmm(getattr(self, f"bias_f{k}"), x[:, lo:hi], getattr(self, f"w_in_f{k}"))
-        back = x[:, steps - hi : steps - lo].flip(1)  # backward chains read the song from its end
-        bwd = torch.baddbmm(getattr(self, f"bias_b{k}"), back, getattr(self, f"w_in_b{k}"))
-        return torch.cat([fwd, bwd], dim=0)
+        bwd = torch.baddbmm(getattr(self, f"bias_b{k}"), x[:, steps - hi : steps - lo], getattr(self, f"w_in_b{k}"))
+        return fwd.numpy(), bwd.numpy()
 
     def _layer(self, x: torch.Tensor, k: int) -> torch.Tensor:
         """One BLSTM layer of every network: ``(N, T, in)`` to ``(N, T, 2H)`` (forward | backward)."""
         n, steps = self.n_nets, x.shape[1]
-        w_rec, peep = getattr(self, f"w_rec{k}"), getattr(self, f"peep{k}")
+        w_rec, peep = getattr(self, f"w_rec{k}").numpy(), getattr(self, f"peep{k}").numpy()
         hidden = w_rec.shape[1]
-        h = x.new_zeros(2 * n, 1, hidden)
-        c = x.new_zeros(2 * n, 1, hidden)
-        outs = []
+        h = np.zeros((2 * n, hidden), dtype=np.float32)
+        c = np.zeros((2 * n, hidden), dtype=np.float32)
+        out = np.empty((n, steps, 2 * hidden), dtype=np.float32)
         for lo in range(0, steps, CHUNK):
-            pre = self._projection(x, k, lo, min(lo + CHUNK, steps))
-            threads = torch.get_num_threads()
-            torch.set_num_threads(1)  # one step's tensors are tiny: threads only add synchronisation
-            try:  # the plain TorchScript interpreter: no profiling runs, and faster on this tiny loop
-                with torch.jit.optimized_execution(False):
-                    out, h, c = _recurrence()(pre, w_rec, peep, h, c)
-            finally:
-                torch.set_num_threads(threads)
-            outs.append(out)
-        y = torch.cat(outs, dim=1)  # (2N, T, H), backward chains in reversed time
-        return torch.cat([y[:n], y[n:].flip(1)], dim=2)
+            pre_f, pre_b = self._projections(x, k, lo, min(lo + CHUNK, steps))
+            blstm_chunk(pre_f, pre_b, w_rec, peep, h, c, out, lo)  # carries (h, c) on to the next chunk
+        return torch.from_numpy(out)
 
     @torch.no_grad()
     def forward(self, feats: torch.Tensor) -> torch.Tensor:
@@ -88,37 +80,6 @@ class DownbeatEnsemble(torch.nn.Module):
             x = self._layer(x, k)
         probs = torch.softmax(torch.baddbmm(self.out_b, x, self.out_w), dim=2)
         return probs.mean(dim=0)[:, 1:]
-
-
-def _peephole_lstm(
-    pre: torch.Tensor, w_rec: torch.Tensor, peep: torch.Tensor, h: torch.Tensor, c: torch.Tensor
-) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """Run peephole LSTM chains over ``pre``'s steps from state ``(h, c)``; returns outputs and the end state.
-
-    Shapes: ``pre (chains, steps, 4H)``, ``h`` and ``c (chains, 1, H)``, ``peep (chains, 3, H)``.
-    Gates i and f see the previous cell state, gate o the new one (madmom's LSTMLayer). Everything
-    stays 3-D so a step is only the gate arithmetic (no reshapes or indexed writes).
-    """
-    p_i, p_f, p_o = peep[:, 0:1], peep[:, 1:2], peep[:, 2:3]
-    outs: list[torch.Tensor] = []
-    for t in range(pre.shape[1]):
-        gi, gf, gc, go = torch.baddbmm(pre[:, t : t + 1], h, w_rec).chunk(4, dim=2)
-        c = torch.addcmul(
-            c * torch.sigmoid(torch.addcmul(gf, c, p_f)), torch.tanh(gc), torch.sigmoid(torch.addcmul(gi, c, p_i))
-        )
-        h = torch.tanh(c) * torch.sigmoid(torch.addcmul(go, c, p_o))
-        outs.append(h)
-    return torch.cat(outs, dim=1), h, c
-
-
-def _recurrence():
-    """The LSTM loop compiled with TorchScript once per process (Python per step would dominate)."""
-    global _scripted
-    if _scripted is None:
-        with warnings.catch_warnings():  # TorchScript is deprecated in favour of torch.compile, which
-            warnings.simplefilter("ignore", DeprecationWarning)  # needs a C compiler at run time
-            _scripted = torch.jit.script(_peephole_lstm)
-    return _scripted
 
 
 def ensemble() -> DownbeatEnsemble:

@@ -14,8 +14,8 @@ def cache_dir() -> Path:
     return Path(base) / "dance" / "numba"
 
 
-def import_librosa():
-    """Import librosa with numba's on-disk cache enabled, so compiled kernels survive the process."""
+def use_cache_dir() -> None:
+    """Point numba at :func:`cache_dir` (unless ``$NUMBA_CACHE_DIR`` is set); call before importing numba."""
     if "NUMBA_CACHE_DIR" not in os.environ:
         path = cache_dir()
         try:
@@ -23,6 +23,11 @@ def import_librosa():
             os.environ["NUMBA_CACHE_DIR"] = str(path)
         except OSError:  # a read-only home: numba then compiles in memory, as before
             pass
+
+
+def import_librosa():
+    """Import librosa with numba's on-disk cache enabled, so compiled kernels survive the process."""
+    use_cache_dir()
     try:
         import librosa
     except ImportError:
