@@ -41,6 +41,7 @@ class RelativeBias(nn.Module):
         self.table = nn.Embedding(2 * max(self.buckets // 2, 2), heads)
         nn.init.normal_(self.table.weight, std=0.02)
         self._cache: tuple[torch.Tensor, torch.Tensor] | None = None
+        self._bias_cache: tuple[torch.Tensor, tuple, torch.Tensor] | None = None
 
     def index(self, positions: torch.Tensor) -> torch.Tensor:
         """Bucket indices ``(L, L)`` for integer positions ``(L,)`` (cached for repeated calls)."""
@@ -58,8 +59,19 @@ class RelativeBias(nn.Module):
         return idx
 
     def forward(self, positions: torch.Tensor) -> torch.Tensor:
-        """Bias ``(1, heads, L, L)`` for query/key positions ``(L,)``."""
-        return self.table(self.index(positions)).permute(2, 0, 1).unsqueeze(0)
+        """Bias ``(1, heads, L, L)`` (contiguous) for query/key positions ``(L,)``. Without
+        gradients (evaluation, generation) the bias itself is cached, keyed by the positions and
+        the table's version counter, so a sliding-window loop looks it up once per window length."""
+        weight = self.table.weight
+        if torch.is_grad_enabled() and weight.requires_grad:
+            return self.table(self.index(positions)).permute(2, 0, 1).unsqueeze(0).contiguous()
+        key = (positions._version, weight._version, weight.data_ptr(), weight.dtype)
+        hit = self._bias_cache
+        if hit is not None and hit[0] is positions and hit[1] == key:
+            return hit[2]
+        bias = self.table(self.index(positions)).permute(2, 0, 1).unsqueeze(0).contiguous().detach()
+        self._bias_cache = (positions, key, bias)
+        return bias
 
 
 class EncoderLayer(nn.Module):
@@ -80,20 +92,36 @@ class EncoderLayer(nn.Module):
     def attend(self, x: torch.Tensor, bias: torch.Tensor | None) -> torch.Tensor:
         """Multi-head self-attention of ``(B, L, dim)`` with an additive logit bias."""
         b, length, dim = x.shape
-        q, k, v = self.qkv(x).view(b, length, 3, self.heads, dim // self.heads).permute(2, 0, 3, 1, 4)
-        if bias is not None:
+        q, k, v = F.linear(x, self.qkv.weight, self.qkv.bias).view(b, length, 3, self.heads, dim // self.heads).permute(2, 0, 3, 1, 4)
+        if bias is not None and bias.dtype != q.dtype:
             bias = bias.to(q.dtype)
         p = self.attn_dropout if self.training else 0.0
         out = F.scaled_dot_product_attention(q, k, v, attn_mask=bias, dropout_p=p)
-        return self.proj(out.transpose(1, 2).reshape(b, length, dim))
+        return F.linear(out.transpose(1, 2).reshape(b, length, dim), self.proj.weight, self.proj.bias)
 
     def forward(self, x: torch.Tensor, bias: torch.Tensor | None) -> torch.Tensor:
         """One layer."""
+        if not self.training:
+            return self._infer(x, bias)
         if self.pre:
             x = x + self.drop(self.attend(self.norm1(x), bias))
             return x + self.drop(self.ff(self.norm2(x)))
         x = self.norm1(x + self.drop(self.attend(x, bias)))
         return self.norm2(x + self.drop(self.ff(x)))
+
+
+    def _infer(self, x: torch.Tensor, bias: torch.Tensor | None) -> torch.Tensor:
+        """The same layer in evaluation, through functional calls (no dropout, fewer module calls:
+        the sliding-window generation loop runs it at every step on a handful of tokens)."""
+        n1, n2, (fc1, _, _, fc2) = self.norm1, self.norm2, self.ff
+        if self.pre:
+            y = F.layer_norm(x, n1.normalized_shape, n1.weight, n1.bias, n1.eps)
+            x = x + self.attend(y, bias)
+            y = F.layer_norm(x, n2.normalized_shape, n2.weight, n2.bias, n2.eps)
+            return x + F.linear(F.relu(F.linear(y, fc1.weight, fc1.bias)), fc2.weight, fc2.bias)
+        x = F.layer_norm(x + self.attend(x, bias), n1.normalized_shape, n1.weight, n1.bias, n1.eps)
+        y = F.linear(F.relu(F.linear(x, fc1.weight, fc1.bias)), fc2.weight, fc2.bias)
+        return F.layer_norm(x + y, n2.normalized_shape, n2.weight, n2.bias, n2.eps)
 
 
 class Transformer(nn.Module):
@@ -110,10 +138,11 @@ class Transformer(nn.Module):
         max_distance = getattr(config, "max_distance", 128)
         self.bias = RelativeBias(config.heads, buckets, max_distance) if relative else None
         self.final = nn.LayerNorm(dim) if config.norm == "pre" and config.layers > 0 else nn.Identity()
+        self.identity_final = isinstance(self.final, nn.Identity)
 
     def forward(self, x: torch.Tensor, positions: torch.Tensor) -> torch.Tensor:
         """``(B, L, dim)`` tokens at integer times ``positions (L,)`` -> ``(B, L, dim)``."""
         bias = self.bias(positions) if self.bias is not None else None
         for layer in self.layers:
             x = layer(x, bias)
-        return self.final(x)
+        return x if self.identity_final else self.final(x)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import torch
+import torch.nn.functional as F
 from torch import nn
 
 from dance_flow.attention import Transformer
@@ -196,9 +197,10 @@ class AffineCoupling(nn.Module):
     def invert(self, z: torch.Tensor, h: torch.Tensor) -> torch.Tensor:
         """Latent to data without the log-determinant (the sampling fast path)."""
         za, zb = z[..., : self.change], z[..., self.change :]
-        y = self.out(self.net(self.inp(torch.cat([zb, h], dim=-1)), self.positions))
+        hidden = F.linear(torch.cat([zb, h], dim=-1), self.inp.weight, self.inp.bias)
+        y = F.linear(self.net(hidden, self.positions), self.out.weight, self.out.bias)
         shift, raw = y.chunk(2, dim=-1)
-        xa = za / (torch.sigmoid(raw + SCALE_SHIFT) + SCALE_FLOOR) - shift
+        xa = za / torch.sigmoid(raw + SCALE_SHIFT).add_(SCALE_FLOOR) - shift
         return torch.cat([xa, zb], dim=-1)
 
     def forward(self, x: torch.Tensor, h: torch.Tensor):
@@ -295,7 +297,8 @@ class GaussianBase(nn.Module):
 
     def sample(self, shape, temperature: float, generator, device, dtype) -> torch.Tensor:
         """Noise with standard deviation ``temperature``."""
-        return torch.randn(shape, generator=generator, device=device, dtype=dtype) * temperature
+        z = torch.randn(shape, generator=generator, device=device, dtype=dtype)
+        return z if temperature == 1.0 else z * temperature
 
 
 class StudentTBase(nn.Module):
