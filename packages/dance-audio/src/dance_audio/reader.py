@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from dance_core.data.features import check_audio_path
 from dance_core.errors import DataError
 from dance_core.media import Audio
 
@@ -43,13 +44,7 @@ class SoundFileReader:
 
     def read(self, path: str | Path) -> Audio:
         """Samples mixed to mono float32 in [-1, 1] at the file's own rate."""
-        path = Path(path)
-        if not path.exists():
-            raise DataError(f"{path}: audio file not found")
-        if path.is_dir():
-            raise DataError(f"{path}: is a folder, not an audio file")
-        if path.stat().st_size == 0:
-            raise DataError(f"{path}: audio file is empty")
+        path = check_audio_path(path)
         try:
             samples, rate = _read_soundfile(path)
         except Exception as first:  # libsndfile cannot decode it: try the system decoders

@@ -27,8 +27,8 @@ def audio_reader_for(path: Path, registry: Registry):
     )
 
 
-def load_audio(path: str | Path, registry: Registry) -> Audio:
-    """Read a music file; missing, empty or too-short files are one-line errors."""
+def check_audio_path(path: str | Path) -> Path:
+    """The path, if it names a non-empty file; otherwise a one-line error (for every audio reader)."""
     path = Path(path)
     if not path.exists():
         raise DataError(f"{path}: audio file not found")
@@ -36,6 +36,12 @@ def load_audio(path: str | Path, registry: Registry) -> Audio:
         raise DataError(f"{path}: is a folder, not an audio file")
     if path.stat().st_size == 0:
         raise DataError(f"{path}: audio file is empty")
+    return path
+
+
+def load_audio(path: str | Path, registry: Registry) -> Audio:
+    """Read a music file; missing, empty or too-short files are one-line errors."""
+    path = check_audio_path(path)
     audio = audio_reader_for(path, registry).read(str(path))
     if audio.duration < MIN_SECONDS:
         raise DataError(f"{path}: audio is {audio.duration:.2f} s long; at least {MIN_SECONDS} s needed")

@@ -98,6 +98,6 @@ def parse_file(path: Path) -> Source:
 def parse_value(text: str) -> Any:
     """Parse one ``--set`` value as YAML (so ``1e-4`` is a number and ``[1, 2]`` a list)."""
     try:
-        return yaml.load(text, Loader=RecipeLoader)
+        return yaml.load(text, Loader=RecipeLoader)  # RecipeLoader is a yaml.SafeLoader
     except yaml.YAMLError:
         return text
