@@ -23,8 +23,7 @@ def test_reads_the_aist_sample_with_a_template_skeleton():
     data = read_motion(SMPL_SAMPLE, get_registry())
     motion = data.skeleton_motion
     assert data.values.shape == (127, 75) and motion.fps == 60.0 and len(motion.skeleton) == 24
-    with open(SMPL_SAMPLE, "rb") as fh:  # the fixture is ours to trust; compare with its raw arrays
-        raw = pickle.load(fh)
+    raw = safe_load(SMPL_SAMPLE)  # the fixture's raw arrays, through the restricted unpickler
     np.testing.assert_allclose(data.values[:, :72], raw["smpl_poses"], atol=1e-5)
     pos = motion.positions()
     np.testing.assert_allclose(pos[:, 0], motion.skeleton.offsets[0] + raw["smpl_trans"], atol=1e-6)
