@@ -53,8 +53,8 @@ def test_our_network_input_equals_madmoms_preprocessing(madmom, sample_44k):
     np.testing.assert_allclose(ours, theirs, atol=1e-5)
 
 
-def test_torch_port_equals_madmom(sample_44k, madmom_activations):
-    from dance_audio.downbeat_torch import downbeat_activations
+def test_port_equals_madmom(sample_44k, madmom_activations):
+    from dance_audio.downbeat_net import downbeat_activations
 
     ours = downbeat_activations(sample_44k)
     assert ours.shape == madmom_activations.shape == (281, 2)
@@ -62,12 +62,32 @@ def test_torch_port_equals_madmom(sample_44k, madmom_activations):
     assert madmom_activations.max() > 0.5  # real beats in real music, not a trivial match
 
 
-def test_torch_port_carries_state_across_chunks(sample_44k, madmom_activations, monkeypatch):
-    import dance_audio.downbeat_torch as port
+def test_lstm_kernel_equals_a_float64_reference_over_a_long_sequence():
+    """The cell state integrates the gates over thousands of steps: rounding must not add up."""
+    from dance_audio.lstm_kernel import lstm_sequence
 
-    monkeypatch.setattr(port, "CHUNK", 64)  # 281 frames: 5 chunks per layer and direction
-    ours = port.downbeat_activations(sample_44k)
-    assert np.abs(ours - madmom_activations).max() < 1e-4
+    rng = np.random.default_rng(1)
+    steps, hidden = 3000, 25
+    pre = (rng.standard_normal((steps, 4 * hidden)) * 4).astype(np.float32)
+    pre[:, hidden : 2 * hidden] += 6.0  # forget gates near 1: long memory, large cell states
+    w_rec = (rng.standard_normal((hidden, 4 * hidden)) * 0.3).astype(np.float32)
+    peep = (rng.standard_normal((3, hidden)) * 0.3).astype(np.float32)
+    out = np.zeros((steps, 2 * hidden), np.float32)
+    lstm_sequence(pre, w_rec, peep, True, out[:, hidden:])  # a column block, read from the end
+
+    def sigmoid(v):
+        return 1.0 / (1.0 + np.exp(-v))
+
+    h, c, ref = np.zeros(hidden), np.zeros(hidden), np.zeros((steps, hidden))
+    for t in range(steps - 1, -1, -1):
+        g = pre[t] + h @ w_rec
+        i, f = sigmoid(g[:hidden] + c * peep[0]), sigmoid(g[hidden : 2 * hidden] + c * peep[1])
+        c = c * f + np.tanh(g[2 * hidden : 3 * hidden]) * i
+        h = np.tanh(c) * sigmoid(g[3 * hidden :] + c * peep[2])
+        ref[t] = h
+    assert np.abs(c).max() > 50  # the test reaches saturated, long-memory cells
+    assert np.abs(out[:, hidden:] - ref).max() < 1e-4  # float32 gates would be off by ~2e-3 here
+    assert not out[:, :hidden].any()  # the other block is untouched
 
 
 def test_madmom_backend_and_fps_resampling(sample, madmom_activations):
@@ -77,7 +97,7 @@ def test_madmom_backend_and_fps_resampling(sample, madmom_activations):
     native = DownbeatFeatures("madmom").extract(inputs, 100.0)
     np.testing.assert_allclose(native, madmom_activations, atol=1e-6)
     inputs20 = FeatureInputs(n_frames=sample.n_frames(20.0), audio=sample)
-    at20 = DownbeatFeatures("torch").extract(inputs20, 20.0)
+    at20 = DownbeatFeatures("port").extract(inputs20, 20.0)
     assert at20.shape == (57, 2)
     np.testing.assert_allclose(at20, resample_activation(madmom_activations, 100.0, 57, 20.0), atol=1e-4)
 

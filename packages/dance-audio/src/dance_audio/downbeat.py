@@ -15,8 +15,9 @@ RATE, NATIVE_FPS = 44100, 100.0
 _cache: dict[str, Any] = {"key": None, "audio": None, "value": None}
 
 
-def activations(audio: Audio, backend: str = "torch") -> np.ndarray:
-    """``(T100, 2)`` beat and downbeat activations at 100 fps (cached for the last audio seen)."""
+def activations(audio: Audio, backend: str = "port") -> np.ndarray:
+    """``(T100, 2)`` beat and downbeat activations at 100 fps from the port, or from madmom itself when
+    ``backend`` is ``"madmom"`` (cached for the last audio seen)."""
     key = (id(audio), backend)
     if _cache["key"] == key and _cache["audio"] is audio:
         return _cache["value"]
@@ -30,7 +31,7 @@ def activations(audio: Audio, backend: str = "torch") -> np.ndarray:
 
         value = np.asarray(RNNDownBeatProcessor()(Signal(y, sample_rate=RATE)), dtype=np.float32)
     else:
-        from .downbeat_torch import downbeat_activations
+        from .downbeat_net import downbeat_activations
 
         value = downbeat_activations(y)
     _cache.update(key=key, audio=audio, value=value)
@@ -59,7 +60,7 @@ def resample_activation(x: np.ndarray, src_fps: float, n_frames: int, fps: float
 class DownbeatFeatures:
     """Two columns: beat and downbeat activation of madmom's RNNDownBeatProcessor."""
 
-    def __init__(self, backend: str = "torch"):
+    def __init__(self, backend: str = "port"):
         self.backend = backend
 
     def dim(self) -> int:

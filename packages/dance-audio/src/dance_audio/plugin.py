@@ -39,7 +39,7 @@ def register_feature_extractors(register):
         "madmom-downbeat",
         c.DownbeatConfig,
         f"{_M}.downbeat:build",
-        "madmom RNNDownBeatProcessor beat/downbeat activations, torch port (2)",
+        "madmom RNNDownBeatProcessor beat/downbeat activations, NumPy/numba port (2)",
     )
     register(
         "beats",
