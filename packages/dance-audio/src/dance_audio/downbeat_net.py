@@ -2,8 +2,9 @@
 
 Per network and BLSTM layer, the input projections of each direction are one BLAS matrix product
 (NumPy) and the strictly sequential recurrence runs in a cached numba kernel
-(``lstm_kernel.lstm_sequence``), the forward and backward chains on two threads (the kernel
-releases the GIL), instead of madmom's NumPy loops of tiny per-step products. The output is
+(``lstm_kernel.lstm_sequence``), instead of madmom's NumPy loops of tiny per-step products. No
+threads of its own: BLAS already uses the cores for the products, and on a 2-core machine a
+second thread of ours only fights OpenBLAS's spinning workers. The output is
 madmom's: the mean of the networks' softmax outputs without the "no beat" column, i.e.
 (beat, downbeat) at 100 fps. Importing this module does not import torch, madmom or librosa.
 """
@@ -11,7 +12,6 @@ madmom's: the mean of the networks' softmax outputs without the "no beat" column
 from __future__ import annotations
 
 import threading
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -32,23 +32,20 @@ def networks() -> list[NetworkWeights]:
         return _networks
 
 
-def _blstm(x: np.ndarray, fwd: LSTMWeights, bwd: LSTMWeights, pool: ThreadPoolExecutor) -> np.ndarray:
+def _blstm(x: np.ndarray, fwd: LSTMWeights, bwd: LSTMWeights) -> np.ndarray:
     """One BLSTM layer: ``(T, in)`` to ``(T, 2H)`` (forward states | backward states)."""
     hidden = fwd.w_rec.shape[0]
     out = np.empty((len(x), 2 * hidden), dtype=np.float32)
-    pre_f = x @ fwd.w_in + fwd.bias
-    pre_b = x @ bwd.w_in + bwd.bias
-    backward = pool.submit(lstm_sequence, pre_b, bwd.w_rec, bwd.peep, True, out[:, hidden:])
-    lstm_sequence(pre_f, fwd.w_rec, fwd.peep, False, out[:, :hidden])
-    backward.result()
+    lstm_sequence(x @ fwd.w_in + fwd.bias, fwd.w_rec, fwd.peep, False, out[:, :hidden])
+    lstm_sequence(x @ bwd.w_in + bwd.bias, bwd.w_rec, bwd.peep, True, out[:, hidden:])
     return out
 
 
-def _probabilities(feats: np.ndarray, net: NetworkWeights, pool: ThreadPoolExecutor) -> np.ndarray:
+def _probabilities(feats: np.ndarray, net: NetworkWeights) -> np.ndarray:
     """One network's softmax output ``(T, 3)``: no beat, beat, downbeat."""
     x = feats
     for fwd, bwd in net.layers:
-        x = _blstm(x, fwd, bwd, pool)
+        x = _blstm(x, fwd, bwd)
     logits = x @ net.out_w + net.out_b
     logits -= logits.max(axis=1, keepdims=True)
     e = np.exp(logits)
@@ -62,9 +59,8 @@ def downbeat_activations(samples_44k: np.ndarray) -> np.ndarray:
         return np.zeros((0, 2), dtype=np.float32)
     nets = networks()
     total = np.zeros((len(feats), 3), dtype=np.float32)
-    with ThreadPoolExecutor(max_workers=1) as pool:
-        for net in nets:
-            total += _probabilities(feats, net, pool)
+    for net in nets:
+        total += _probabilities(feats, net)
     return (total[:, 1:] / len(nets)).astype(np.float32)
 
 
