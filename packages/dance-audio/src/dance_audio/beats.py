@@ -1,4 +1,4 @@
-"""Beat and downbeat tracking (madmom's DBN on the downbeat RNN, librosa as the fallback) and the
+"""Beat and downbeat tracking (madmom's DBN, reimplemented, on the downbeat RNN; librosa as the fallback) and the
 ``beats`` extractor: one-hot beat and downbeat frames and the phase within beat and bar."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from dance_core.errors import DataError
+from dance_core.errors import DataError, PluginError
 from dance_core.media import Audio, FeatureInputs
 
 from .timing import event_phase, events_to_onehot, resample
@@ -30,18 +30,18 @@ class Beats:
 
 
 def track_madmom(audio: Audio, beats_per_bar: list[int], min_bpm: float, max_bpm: float) -> Beats:
-    """madmom's DBN downbeat tracker on the (torch-ported) RNN activations."""
+    """madmom's DBN downbeat tracker (our exact reimplementation, :mod:`.dbn`) on the ported RNN's
+    activations; madmom itself is not imported, only its installed network weights are read."""
+    from .madmom_compat import INSTALL_HINT, madmom_available
+
+    if not madmom_available():
+        raise PluginError(INSTALL_HINT)
+    from .dbn import DBNDownBeatTracker
     from .downbeat import NATIVE_FPS, activations
-    from .madmom_compat import import_madmom
 
-    import_madmom()
-    from madmom.features.downbeats import DBNDownBeatTrackingProcessor
-
-    act = activations(audio, "torch")
-    dbn = DBNDownBeatTrackingProcessor(
-        beats_per_bar=list(beats_per_bar), min_bpm=min_bpm, max_bpm=max_bpm, fps=NATIVE_FPS
-    )
-    result = np.asarray(dbn(act), dtype=np.float64).reshape(-1, 2)
+    act = activations(audio)
+    dbn = DBNDownBeatTracker(beats_per_bar=list(beats_per_bar), min_bpm=min_bpm, max_bpm=max_bpm, fps=NATIVE_FPS)
+    result = dbn(act)
     return Beats(result[:, 0], result[:, 1].astype(np.int64))
 
 
