@@ -10,29 +10,20 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.fft
 
 from dance_core.errors import DataError
 from dance_core.media import Audio, FeatureInputs
 
+from .stft import stft_at
 from .timing import resample
 
-CHUNK = 2048  # frames per FFT batch, bounding memory on long songs
 AMIN = 1e-10
 _cache: dict[str, Any] = {"key": None, "audio": None, "value": None}
 
 
 def _power_frames(y: np.ndarray, rate: int, n_frames: int, fps: float, n_fft: int) -> np.ndarray:
-    half = n_fft // 2
-    padded = np.pad(y, (half, half + n_fft))
     centres = np.minimum(np.round(np.arange(n_frames) * rate / fps).astype(np.int64), len(y))
-    window = (0.5 - 0.5 * np.cos(2 * np.pi * np.arange(n_fft) / n_fft)).astype(np.float32)
-    offsets = np.arange(n_fft)
-    out = np.empty((n_frames, half + 1), dtype=np.float32)
-    for lo in range(0, n_frames, CHUNK):
-        frames = padded[centres[lo : lo + CHUNK, None] + offsets[None, :]] * window
-        out[lo : lo + CHUNK] = np.abs(scipy.fft.rfft(frames, axis=1, workers=-1)) ** 2
-    return out
+    return stft_at(y, centres, n_fft, power=True)
 
 
 def hz_to_mel(hz: np.ndarray) -> np.ndarray:
@@ -66,6 +57,16 @@ def mel_filterbank(rate: int, n_fft: int, n_mels: int, fmin: float = 0.0, fmax: 
     return weights.astype(np.float32)
 
 
+def power_to_db(power: np.ndarray, ref: float = 1.0, top_db: float | None = None) -> np.ndarray:
+    """``10 log10(power / ref)`` with power floored at 1e-10 (and ``ref`` too), then, with ``top_db``,
+    floored at ``top_db`` below the maximum: librosa's ``power_to_db``."""
+    db = 10.0 * np.log10(np.maximum(power, AMIN))
+    db -= 10.0 * np.log10(np.maximum(AMIN, ref))  # in ref's precision, as librosa
+    if top_db is not None:
+        db = np.maximum(db, db.max() - top_db)
+    return db
+
+
 def log_mel(
     audio: Audio,
     n_frames: int,
@@ -83,7 +84,7 @@ def log_mel(
     y = resample(audio.samples, audio.rate, rate)
     basis = mel_filterbank(rate, n_fft, n_mels, fmin, fmax)
     power = _power_frames(y, rate, n_frames, fps, n_fft)
-    value = 10.0 * np.log10(np.maximum(power @ basis.T, AMIN))
+    value = power_to_db(power @ basis.T)
     _cache.update(key=key, audio=audio, value=value)
     return value
 
