@@ -49,6 +49,21 @@ def test_librosa_fallback_on_a_click_track(make_clicks, monkeypatch):
     assert set(beats.positions.tolist()) <= {1, 2, 3, 4}
 
 
+def test_librosa_fallback_equals_librosas_own_tracker_on_real_music(sample):
+    librosa = pytest.importorskip("librosa")
+    from dance_audio.beats import LIBROSA_HOP, LIBROSA_RATE, track_librosa
+    from dance_audio.timing import resample
+
+    ours = track_librosa(sample, [3, 4], 55.0, 160.0)
+    y = resample(sample.samples, sample.rate, LIBROSA_RATE)
+    onset = librosa.onset.onset_strength(y=y, sr=LIBROSA_RATE, hop_length=LIBROSA_HOP)
+    _, frames = librosa.beat.beat_track(
+        onset_envelope=onset, sr=LIBROSA_RATE, hop_length=LIBROSA_HOP, start_bpm=float(np.sqrt(55.0 * 160.0))
+    )
+    assert len(frames) >= 4
+    np.testing.assert_allclose(ours.times, np.asarray(frames) * LIBROSA_HOP / LIBROSA_RATE, atol=1e-9)
+
+
 def test_beat_features_mark_beats_and_phases(sample, annotated_beats):
     if not madmom_available():
         pytest.skip("the madmom extra is not installed")

@@ -13,7 +13,7 @@ from dance_core.media import Audio, FeatureInputs
 
 from .timing import event_phase, events_to_onehot, resample
 
-LIBROSA_RATE, LIBROSA_HOP = 22050, 512
+LIBROSA_RATE, LIBROSA_FFT, LIBROSA_HOP, LIBROSA_MELS = 22050, 2048, 512, 128
 
 
 @dataclass(frozen=True)
@@ -46,17 +46,17 @@ def track_madmom(audio: Audio, beats_per_bar: list[int], min_bpm: float, max_bpm
 
 
 def track_librosa(audio: Audio, beats_per_bar: list[int], min_bpm: float, max_bpm: float) -> Beats:
-    """librosa's dynamic-programming beat tracker; bars start on the beat phase with the most onset energy."""
-    from .numba_cache import import_librosa
+    """librosa's dynamic-programming beat tracker (our equal reimplementation, :mod:`.rhythm`) on the
+    mean-over-mel-bands onset envelope; bars start on the beat phase with the most onset energy."""
+    from .rhythm import beat_track, onset_strength
+    from .spectral import mel_filterbank, power_to_db
+    from .stft import stft
 
-    librosa = import_librosa()
     y = resample(audio.samples, audio.rate, LIBROSA_RATE)
-    onset = librosa.onset.onset_strength(y=y, sr=LIBROSA_RATE, hop_length=LIBROSA_HOP)
-    tempo_guess = float(np.sqrt(min_bpm * max_bpm))
-    _, frames = librosa.beat.beat_track(
-        onset_envelope=onset, sr=LIBROSA_RATE, hop_length=LIBROSA_HOP, start_bpm=tempo_guess
-    )
-    frames = np.asarray(frames, dtype=np.int64)
+    power = np.abs(stft(y, LIBROSA_FFT, LIBROSA_HOP)) ** 2
+    db = power_to_db(power @ mel_filterbank(LIBROSA_RATE, LIBROSA_FFT, LIBROSA_MELS).T, top_db=80.0)
+    onset = onset_strength(db, LIBROSA_FFT, LIBROSA_HOP, aggregate=np.mean)
+    _, frames = beat_track(onset, LIBROSA_RATE / LIBROSA_HOP, start_bpm=float(np.sqrt(min_bpm * max_bpm)))
     times = frames * LIBROSA_HOP / LIBROSA_RATE
     bar = max(beats_per_bar)
     strength = onset[frames] if len(frames) else np.zeros(0)

@@ -9,33 +9,32 @@ import numpy as np
 from dance_core.errors import DataError
 from dance_core.media import Audio, FeatureInputs
 
+from .memo import LastAudioMemo
 from .timing import resample, retime
 
 RATE, NATIVE_FPS = 44100, 100.0
-_cache: dict[str, Any] = {"key": None, "audio": None, "value": None}
+_activations = LastAudioMemo()
 
 
 def activations(audio: Audio, backend: str = "port") -> np.ndarray:
     """``(T100, 2)`` beat and downbeat activations at 100 fps from the port, or from madmom itself when
-    ``backend`` is ``"madmom"`` (cached for the last audio seen)."""
-    key = (id(audio), backend)
-    if _cache["key"] == key and _cache["audio"] is audio:
-        return _cache["value"]
+    ``backend`` is ``"madmom"`` (computed once for the last audio seen)."""
+    return _activations.get(audio, backend, lambda: _compute(audio, backend))
+
+
+def _compute(audio: Audio, backend: str) -> np.ndarray:
     y = resample(audio.samples, audio.rate, RATE)
-    if backend == "madmom":
-        from .madmom_compat import import_madmom
-
-        import_madmom()
-        from madmom.audio.signal import Signal
-        from madmom.features.downbeats import RNNDownBeatProcessor
-
-        value = np.asarray(RNNDownBeatProcessor()(Signal(y, sample_rate=RATE)), dtype=np.float32)
-    else:
+    if backend != "madmom":
         from .downbeat_net import downbeat_activations
 
-        value = downbeat_activations(y)
-    _cache.update(key=key, audio=audio, value=value)
-    return value
+        return downbeat_activations(y)
+    from .madmom_compat import import_madmom
+
+    import_madmom()
+    from madmom.audio.signal import Signal
+    from madmom.features.downbeats import RNNDownBeatProcessor
+
+    return np.asarray(RNNDownBeatProcessor()(Signal(y, sample_rate=RATE)), dtype=np.float32)
 
 
 def resample_activation(x: np.ndarray, src_fps: float, n_frames: int, fps: float) -> np.ndarray:

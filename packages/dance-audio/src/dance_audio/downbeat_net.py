@@ -2,9 +2,8 @@
 
 Per network and BLSTM layer, the input projections of each direction are one BLAS matrix product
 (NumPy) and the strictly sequential recurrence runs in a cached numba kernel
-(``lstm_kernel.lstm_sequence``), instead of madmom's NumPy loops of tiny per-step products. No
-threads of its own: BLAS already uses the cores for the products, and on a 2-core machine a
-second thread of ours only fights OpenBLAS's spinning workers. The output is
+(``lstm_kernel.lstm_sequence``), instead of madmom's NumPy loops of tiny per-step products. BLAS is held
+to one thread meanwhile (:func:`.threads.one_blas_thread`). The output is
 madmom's: the mean of the networks' softmax outputs without the "no beat" column, i.e.
 (beat, downbeat) at 100 fps. Importing this module does not import torch, madmom or librosa.
 """
@@ -17,36 +16,43 @@ import numpy as np
 
 from .downbeat_features import FPS, RATE, downbeat_input
 from .lstm_kernel import lstm_sequence
-from .madmom_weights import LSTMWeights, NetworkWeights, load_downbeat_ensemble
+from .madmom_weights import LSTMWeights, load_downbeat_ensemble
+from .threads import one_blas_thread
 
 _lock = threading.Lock()
-_networks: list[NetworkWeights] | None = None
+_layers: list[list[tuple[np.ndarray, np.ndarray, LSTMWeights, LSTMWeights]]] | None = None
+_outputs: list[tuple[np.ndarray, np.ndarray]] | None = None
 
 
-def networks() -> list[NetworkWeights]:
-    """The ensemble's weights, read once per process from the installed madmom package."""
-    global _networks
+def networks() -> tuple[list, list]:
+    """Per network, its BLSTM layers as ``(w_in, bias, fwd, bwd)`` with both directions' input
+    weights side by side (one matrix product per layer), and its output layer ``(w, b)``; read
+    once per process from the installed madmom package."""
+    global _layers, _outputs
     with _lock:
-        if _networks is None:
-            _networks = load_downbeat_ensemble()
-        return _networks
+        if _layers is None:
+            nets = load_downbeat_ensemble()
+            _layers = [
+                [
+                    (np.concatenate([f.w_in, b.w_in], axis=1), np.concatenate([f.bias, b.bias]), f, b)
+                    for f, b in net.layers
+                ]
+                for net in nets
+            ]
+            _outputs = [(net.out_w, net.out_b) for net in nets]
+        return _layers, _outputs
 
 
-def _blstm(x: np.ndarray, fwd: LSTMWeights, bwd: LSTMWeights) -> np.ndarray:
-    """One BLSTM layer: ``(T, in)`` to ``(T, 2H)`` (forward states | backward states)."""
-    hidden = fwd.w_rec.shape[0]
-    out = np.empty((len(x), 2 * hidden), dtype=np.float32)
-    lstm_sequence(x @ fwd.w_in + fwd.bias, fwd.w_rec, fwd.peep, False, out[:, :hidden])
-    lstm_sequence(x @ bwd.w_in + bwd.bias, bwd.w_rec, bwd.peep, True, out[:, hidden:])
-    return out
-
-
-def _probabilities(feats: np.ndarray, net: NetworkWeights) -> np.ndarray:
+def _probabilities(feats: np.ndarray, layers: list, output: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     """One network's softmax output ``(T, 3)``: no beat, beat, downbeat."""
     x = feats
-    for fwd, bwd in net.layers:
-        x = _blstm(x, fwd, bwd)
-    logits = x @ net.out_w + net.out_b
+    for w_in, bias, fwd, bwd in layers:
+        hidden = fwd.w_rec.shape[0]
+        pre = x @ w_in + bias  # (T, 8H): forward gates | backward gates
+        x = np.empty((len(feats), 2 * hidden), dtype=np.float32)
+        lstm_sequence(pre[:, : 4 * hidden], fwd.w_rec, fwd.peep, False, x[:, :hidden])
+        lstm_sequence(pre[:, 4 * hidden :], bwd.w_rec, bwd.peep, True, x[:, hidden:])
+    logits = x @ output[0] + output[1]
     logits -= logits.max(axis=1, keepdims=True)
     e = np.exp(logits)
     return e / e.sum(axis=1, keepdims=True)
@@ -57,11 +63,12 @@ def downbeat_activations(samples_44k: np.ndarray) -> np.ndarray:
     feats = downbeat_input(samples_44k)
     if len(feats) == 0:
         return np.zeros((0, 2), dtype=np.float32)
-    nets = networks()
+    layers, outputs = networks()
     total = np.zeros((len(feats), 3), dtype=np.float32)
-    for net in nets:
-        total += _probabilities(feats, net)
-    return (total[:, 1:] / len(nets)).astype(np.float32)
+    with one_blas_thread():
+        for net_layers, output in zip(layers, outputs, strict=True):
+            total += _probabilities(feats, net_layers, output)
+    return (total[:, 1:] / len(layers)).astype(np.float32)
 
 
 __all__ = ["FPS", "RATE", "downbeat_activations", "networks"]

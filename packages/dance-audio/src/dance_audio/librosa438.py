@@ -21,7 +21,6 @@ masks sum to 1), which saves an inverse and a forward STFT and differs from libr
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
-from contextlib import nullcontext
 from functools import lru_cache
 from typing import Any
 
@@ -36,6 +35,7 @@ from .hpss import hpss_masks
 from .rhythm import beat_track, onset_strength, tempogram
 from .spectral import mel_filterbank, power_to_db
 from .stft import istft, stft
+from .threads import one_blas_thread
 from .timing import fit_frames, resample
 from .tuning import estimate_tuning
 
@@ -78,10 +78,10 @@ class Librosa438:
     def features(self, samples: np.ndarray, rate: int, fps: float) -> np.ndarray:
         """``(1 + len(y) // hop_length, 438)`` float32 features of the samples resampled to ``hop * fps``.
 
-        The work runs on two threads of its own, so BLAS is held to one thread meanwhile (when
-        threadpoolctl is installed): OpenBLAS's idle threads spin, and would take the second core.
+        The work runs on two threads of its own, so BLAS is held to one thread meanwhile
+        (:func:`.threads.one_blas_thread`).
         """
-        with _one_blas_thread():
+        with one_blas_thread():
             return self._features(samples, rate, fps)
 
     def _features(self, samples: np.ndarray, rate: int, fps: float) -> np.ndarray:
@@ -120,22 +120,6 @@ class Librosa438:
         tuning = estimate_tuning(np.abs(harmonic_spec), sr, self.n_fft, bins_per_octave=CHROMA_BINS_PER_OCTAVE)
         octaves = int(min(7, np.floor(np.log2(0.45 * sr / CQT_FMIN))))
         return chroma_cqt(harmonic, sr, self.hop, tuning, octaves, CHROMA_BINS_PER_OCTAVE, CHROMA)
-
-
-@lru_cache(maxsize=1)
-def _blas_threads() -> Any:
-    """threadpoolctl's controller of the loaded BLAS libraries, or ``None`` without threadpoolctl."""
-    try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:
-        return None
-    return ThreadpoolController()
-
-
-def _one_blas_thread() -> Any:
-    """A context in which BLAS runs single-threaded (a no-op without threadpoolctl)."""
-    controller = _blas_threads()
-    return nullcontext() if controller is None else controller.limit(limits=1, user_api="blas")
 
 
 @lru_cache(maxsize=4)

@@ -14,11 +14,12 @@ import numpy as np
 from dance_core.errors import DataError
 from dance_core.media import Audio, FeatureInputs
 
+from .memo import LastAudioMemo
 from .stft import stft_at
 from .timing import resample
 
 AMIN = 1e-10
-_cache: dict[str, Any] = {"key": None, "audio": None, "value": None}
+_log_mels = LastAudioMemo()
 
 
 def _power_frames(y: np.ndarray, rate: int, n_frames: int, fps: float, n_fft: int) -> np.ndarray:
@@ -78,15 +79,13 @@ def log_mel(
     fmax: float | None = None,
 ) -> np.ndarray:
     """``(n_frames, n_mels)`` mel power in dB (re 1.0), cached for the last audio seen."""
-    key = (id(audio), n_frames, fps, n_mels, rate, n_fft, fmin, fmax)
-    if _cache["key"] == key and _cache["audio"] is audio:
-        return _cache["value"]
-    y = resample(audio.samples, audio.rate, rate)
-    basis = mel_filterbank(rate, n_fft, n_mels, fmin, fmax)
-    power = _power_frames(y, rate, n_frames, fps, n_fft)
-    value = power_to_db(power @ basis.T)
-    _cache.update(key=key, audio=audio, value=value)
-    return value
+
+    def compute() -> np.ndarray:
+        y = resample(audio.samples, audio.rate, rate)
+        basis = mel_filterbank(rate, n_fft, n_mels, fmin, fmax)
+        return power_to_db(_power_frames(y, rate, n_frames, fps, n_fft) @ basis.T)
+
+    return _log_mels.get(audio, (n_frames, fps, n_mels, rate, n_fft, fmin, fmax), compute)
 
 
 class MelFeatures:
