@@ -2,15 +2,18 @@
 
 Per network and BLSTM layer, the input projections of each direction are one BLAS matrix product
 (NumPy) and the strictly sequential recurrence runs in a cached numba kernel
-(``lstm_kernel.lstm_sequence``), instead of madmom's NumPy loops of tiny per-step products. BLAS is held
-to one thread meanwhile (:func:`.threads.one_blas_thread`). The output is
+(``lstm_kernel.lstm_sequence``), instead of madmom's NumPy loops of tiny per-step products. The networks run
+on two threads (the kernel releases the GIL), with BLAS held to one thread meanwhile
+(:func:`.threads.one_blas_thread`). The output is
 madmom's: the mean of the networks' softmax outputs without the "no beat" column, i.e.
 (beat, downbeat) at 100 fps. Importing this module does not import torch, madmom or librosa.
 """
 
 from __future__ import annotations
 
+import os
 import threading
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -19,6 +22,7 @@ from .lstm_kernel import lstm_sequence
 from .madmom_weights import LSTMWeights, load_downbeat_ensemble
 from .threads import one_blas_thread
 
+WORKERS = min(2, os.cpu_count() or 1)  # networks run side by side: the kernel releases the GIL
 _lock = threading.Lock()
 _layers: list[list[tuple[np.ndarray, np.ndarray, LSTMWeights, LSTMWeights]]] | None = None
 _outputs: list[tuple[np.ndarray, np.ndarray]] | None = None
@@ -64,10 +68,11 @@ def downbeat_activations(samples_44k: np.ndarray) -> np.ndarray:
     if len(feats) == 0:
         return np.zeros((0, 2), dtype=np.float32)
     layers, outputs = networks()
-    total = np.zeros((len(feats), 3), dtype=np.float32)
-    with one_blas_thread():
-        for net_layers, output in zip(layers, outputs, strict=True):
-            total += _probabilities(feats, net_layers, output)
+    with one_blas_thread(), ThreadPoolExecutor(WORKERS) as pool:
+        probs = list(pool.map(_probabilities, [feats] * len(layers), layers, outputs))
+    total = probs[0].copy()
+    for p in probs[1:]:  # in network order, whatever thread finished first
+        total += p
     return (total[:, 1:] / len(layers)).astype(np.float32)
 
 
