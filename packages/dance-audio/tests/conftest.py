@@ -59,3 +59,12 @@ def annotated_beats(audio_dir) -> tuple[np.ndarray, np.ndarray]:
         if line.strip() and not line.startswith("#")
     ]
     return np.array([float(r[0]) for r in rows]), np.array([int(r[1]) for r in rows])
+
+
+@pytest.fixture(scope="session")
+def librosa():
+    """librosa, the reference our librosa-free features are checked against (a test dependency only)."""
+    from dance_audio.numba_cache import use_cache_dir
+
+    use_cache_dir()  # its numba kernels are then compiled once per machine, not once per test run
+    return pytest.importorskip("librosa")

@@ -49,8 +49,7 @@ def test_librosa_fallback_on_a_click_track(make_clicks, monkeypatch):
     assert set(beats.positions.tolist()) <= {1, 2, 3, 4}
 
 
-def test_librosa_fallback_equals_librosas_own_tracker_on_real_music(sample):
-    librosa = pytest.importorskip("librosa")
+def test_librosa_fallback_equals_librosas_own_tracker_on_real_music(sample, librosa):
     from dance_audio.beats import LIBROSA_HOP, LIBROSA_RATE, track_librosa
     from dance_audio.timing import resample
 

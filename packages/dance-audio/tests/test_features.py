@@ -80,24 +80,20 @@ def test_librosa_438_rejects_fractional_rates():
 
 
 @pytest.mark.parametrize("rate,n_fft,n_mels,fmin,fmax", [(22050, 2048, 80, 0.0, None), (44100, 1024, 40, 30.0, 8000.0)])
-def test_mel_filterbank_equals_librosa(rate, n_fft, n_mels, fmin, fmax):
-    from dance_audio.numba_cache import import_librosa
+def test_mel_filterbank_equals_librosa(rate, n_fft, n_mels, fmin, fmax, librosa):
     from dance_audio.spectral import mel_filterbank
 
-    librosa = import_librosa()
     ours = mel_filterbank(rate, n_fft, n_mels, fmin, fmax)
     theirs = librosa.filters.mel(sr=rate, n_fft=n_fft, n_mels=n_mels, fmin=fmin, fmax=fmax)
     np.testing.assert_allclose(ours, theirs, rtol=1e-5, atol=1e-8)
 
 
-def test_librosa_438_equals_the_reference_recipe_on_real_music(sample):
+def test_librosa_438_equals_the_reference_recipe_on_real_music(sample, librosa):
     """The DanceRevolution extractor's librosa calls, with librosa's defaults, at 15360 Hz (30 fps),
     against our librosa-free implementation: block by block (tolerances relative to each block's
     largest value), and the same beat frames."""
-    from dance_audio.numba_cache import import_librosa
     from dance_audio.timing import resample
 
-    librosa = import_librosa()
     sr = 15360
     y = resample(sample.samples, sample.rate, sr)
     mfcc = librosa.feature.mfcc(S=librosa.power_to_db(librosa.feature.melspectrogram(y=y, sr=sr), ref=np.max))

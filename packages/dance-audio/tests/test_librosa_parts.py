@@ -30,13 +30,6 @@ def _rel(ours, theirs) -> float:
 
 
 @pytest.fixture(scope="module")
-def librosa():
-    from dance_audio.numba_cache import import_librosa
-
-    return import_librosa()
-
-
-@pytest.fixture(scope="module")
 def song(audio_dir, registry):
     """30 s of real music at the analysis rate, and our pipeline's intermediate results on it."""
     from dance_core.data.features import load_audio

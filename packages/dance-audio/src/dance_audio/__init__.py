@@ -1,1 +1,1 @@
-"""dance-audio: Audio and text feature extractors for dance (librosa, madmom, text embeddings)."""
+"""dance-audio: audio and text feature extractors for dance (librosa-438, mel, onset, madmom beats, text)."""
