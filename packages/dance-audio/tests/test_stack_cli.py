@@ -83,3 +83,37 @@ def test_every_music_extractor_handles_silence_and_very_short_clips(registry, na
         extractor = registry.get("feature", name).build()
         feats = extractor.extract(inputs, 30.0)
         assert feats.shape == (inputs.n_frames, extractor.dim()) and np.all(np.isfinite(feats))
+
+
+def test_music_extractors_run_without_torch_librosa_or_madmom(tmp_path):
+    """A fresh interpreter runs every music extractor: torch, librosa, madmom and scipy's
+    slow-to-import signal/ndimage/stats stay unloaded (what keeps a fresh process fast)."""
+    import subprocess
+    import sys
+    import textwrap
+
+    from dance_audio.madmom_compat import madmom_available
+
+    names = ["librosa-438", "mel", "onset"] + (["madmom-downbeat", "beats"] if madmom_available() else [])
+    script = textwrap.dedent(
+        f"""
+        import sys
+        import numpy as np
+        from dance_core.media import Audio, FeatureInputs
+        from dance_core.registry import get_registry
+
+        t = np.arange(3 * 22050) / 22050
+        audio = Audio((0.3 * np.sin(2 * np.pi * 440 * t) * (t % 0.5 < 0.05)).astype(np.float32), 22050)
+        inputs = FeatureInputs(n_frames=audio.n_frames(30.0), audio=audio)
+        for name in {names!r}:
+            feats = get_registry().get("feature", name).build().extract(inputs, 30.0)
+            assert len(feats) == 90 and np.all(np.isfinite(feats)), name
+        heavy = ("torch", "librosa", "madmom", "scipy.signal", "scipy.ndimage", "scipy.stats")
+        print(sorted(m for m in heavy if m in sys.modules))
+        """
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=300, cwd=tmp_path, check=False
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip().splitlines()[-1] == "[]"
