@@ -158,13 +158,44 @@ def stacks(path: Path, tmp: str) -> None:
         print(f"| {name} | {secs:.2f} |")
 
 
+def long_song(tmp: Path) -> None:
+    """Seconds of each extractor on a 20-minute song (a real song looped) and the peak memory."""
+    import resource
+
+    import soundfile as sf
+
+    from dance_core.data.features import load_audio
+    from dance_core.media import FeatureInputs
+    from dance_core.registry import get_registry
+
+    y, rate = sf.read(SONG.parent / "lets_go_fishin.ogg", dtype="float32")
+    y = y.mean(axis=1) if y.ndim > 1 else y
+    path = tmp / "song20min.wav"
+    sf.write(path, np.tile(y, int(np.ceil(1200 * rate / len(y))))[: 1200 * rate], rate)
+    reg = get_registry()
+    audio = load_audio(path, reg)
+    inputs = FeatureInputs(n_frames=audio.n_frames(FPS), audio=audio)
+    print("\n| extractor, 20-minute song (36000 frames), in this order | seconds |")
+    print("|---|---|")
+    for name in ["mel", "onset", "madmom-downbeat", "beats", "librosa-438"]:
+        t0 = time.perf_counter()
+        out = reg.get("feature", name).build().extract(inputs, FPS)
+        assert np.isfinite(out).all()
+        print(f"| {name} | {time.perf_counter() - t0:.1f} |")
+    print(f"\npeak RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6:.2f} GB")
+
+
 def main() -> None:
-    """Print markdown tables of the timings (``--rnn-only``: only madmom against the port)."""
+    """Print markdown tables of the timings (``--rnn-only``: only madmom against the port;
+    ``--long``: only the 20-minute song)."""
     print(
         f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
         f"load average {os.getloadavg()[0]:.1f}, python {platform.python_version()}"
     )
     with tempfile.TemporaryDirectory() as tmp:
+        if "--long" in sys.argv:
+            long_song(Path(tmp))
+            return
         path = song_60s(Path(tmp))
         if "--rnn-only" not in sys.argv:
             stacks(path, tmp)
