@@ -39,6 +39,8 @@ keeps a back pointer per state and frame (about 400 MB).
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -314,7 +316,8 @@ class DBNDownBeatTracker:
         probability, then per frame of the winning path its beat index (0 = downbeat) and
         beat-range flag (empty arrays if no path has a finite probability)."""
         emit = log_emissions(activations, self.observation_lambda)
-        results = [model.viterbi(emit) for model in self.models]
+        with ThreadPoolExecutor(min(len(self.models), os.cpu_count() or 1)) as pool:  # the kernel is nogil
+            results = list(pool.map(lambda model: model.viterbi(emit), self.models))
         log_probs = [float(r[0]) for r in results]
         winner = int(np.argmax(log_probs))
         return winner, log_probs, results[winner][1], results[winner][2]
