@@ -6,12 +6,11 @@ from __future__ import annotations
 import numpy as np
 
 from .numba_cache import use_cache_dir
+from .stft import TINY32
 
 use_cache_dir()  # before numba's first import, so the compiled kernels land in dance's cache
 
 import numba  # noqa: E402
-
-TINY32 = np.float32(np.finfo(np.float32).tiny)
 
 
 @numba.njit(cache=True, nogil=True)

@@ -22,12 +22,13 @@ def plot_song(audio: Audio, fps: float, out: Path) -> None:
     from dance_core.atomic import atomic_path
 
     from .beats import track_beats
-    from .spectral import log_mel, onset_strength
+    from .rhythm import spectral_flux
+    from .spectral import log_mel
 
     rate = max(fps, PLOT_FPS)
     n = audio.n_frames(rate)
     db = log_mel(audio, n, rate, 80, 22050, 2048)
-    onset = onset_strength(db)
+    onset = spectral_flux(db, np.mean)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         beats = track_beats(audio)

@@ -16,19 +16,23 @@ import scipy.fft
 from .stft import periodic_hann
 
 
-def onset_strength(
-    db: np.ndarray, n_fft: int, hop: int, aggregate: Callable[..., np.ndarray] = np.median
-) -> np.ndarray:
+def spectral_flux(db: np.ndarray, aggregate: Callable[..., np.ndarray] = np.mean, delay: int = 1) -> np.ndarray:
     """Spectral flux of a ``(n_frames, n_bands)`` dB spectrogram, aggregated over bands, float32.
 
-    ``aggregate(max(0, db[t] - db[t-1]), axis=1)``, delayed by ``1 + n_fft // (2 hop)`` frames (the
-    lag, and the centred frames' look-ahead) with zeros, and cut to ``n_frames``: librosa's
-    ``onset_strength(S=db, lag=1, max_size=1, center=True)``.
+    ``aggregate(max(0, db[t] - db[t-1]), axis=1)`` placed at frame ``t - 1 + delay`` (zeros before),
+    cut to ``n_frames``; ``delay=1`` puts each rise at the frame where it ends.
     """
     flux = np.maximum(0.0, db[1:] - db[:-1])
     env = aggregate(flux, axis=1) if len(flux) else np.zeros(0, dtype=db.dtype)
-    delay = 1 + n_fft // (2 * hop)
     return np.concatenate([np.zeros(delay, dtype=env.dtype), env])[: len(db)].astype(np.float32)
+
+
+def onset_strength(
+    db: np.ndarray, n_fft: int, hop: int, aggregate: Callable[..., np.ndarray] = np.median
+) -> np.ndarray:
+    """librosa's ``onset_strength(S=db, lag=1, max_size=1, center=True)``: the spectral flux delayed by
+    ``1 + n_fft // (2 hop)`` frames (the lag, and the centred frames' look-ahead)."""
+    return spectral_flux(db, aggregate, 1 + n_fft // (2 * hop))
 
 
 def _padded_frames(onset_envelope: np.ndarray, win_length: int, dtype: type) -> np.ndarray:

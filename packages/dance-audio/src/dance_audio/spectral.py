@@ -15,6 +15,7 @@ from dance_core.errors import DataError
 from dance_core.media import Audio, FeatureInputs
 
 from .memo import LastAudioMemo
+from .rhythm import spectral_flux
 from .stft import stft_at
 from .timing import resample
 
@@ -124,15 +125,7 @@ class OnsetFeatures:
         if inputs.audio is None:
             raise DataError("onset features need audio")
         db = log_mel(inputs.audio, inputs.n_frames, fps, self.n_mels, self.rate, self.n_fft)
-        return onset_strength(db)[:, None]
-
-
-def onset_strength(db: np.ndarray) -> np.ndarray:
-    """Spectral flux of a ``(T, bands)`` dB spectrogram: ``mean(max(0, S[t] - S[t-1]))``."""
-    flux = np.zeros(len(db), dtype=np.float32)
-    if len(db) > 1:
-        flux[1:] = np.maximum(np.diff(db, axis=0), 0.0).mean(axis=1)
-    return flux
+        return spectral_flux(db, np.mean)[:, None]
 
 
 def build_mel(config: Any, **_: Any) -> MelFeatures:
