@@ -64,12 +64,13 @@ def _probabilities(feats: np.ndarray, layers: list, output: tuple[np.ndarray, np
 
 def downbeat_activations(samples_44k: np.ndarray) -> np.ndarray:
     """``(ceil(len / 441), 2)`` float32 beat and downbeat activations at 100 fps for 44.1 kHz mono."""
-    feats = downbeat_input(samples_44k)
-    if len(feats) == 0:
-        return np.zeros((0, 2), dtype=np.float32)
     layers, outputs = networks()
-    with one_blas_thread(), ThreadPoolExecutor(WORKERS) as pool:
-        probs = list(pool.map(_probabilities, [feats] * len(layers), layers, outputs))
+    with one_blas_thread():
+        feats = downbeat_input(samples_44k)
+        if len(feats) == 0:
+            return np.zeros((0, 2), dtype=np.float32)
+        with ThreadPoolExecutor(WORKERS) as pool:
+            probs = list(pool.map(_probabilities, [feats] * len(layers), layers, outputs))
     total = probs[0].copy()
     for p in probs[1:]:  # in network order, whatever thread finished first
         total += p

@@ -17,6 +17,7 @@ from dance_core.media import Audio, FeatureInputs
 from .memo import LastAudioMemo
 from .rhythm import spectral_flux
 from .stft import stft_at
+from .threads import one_blas_thread
 from .timing import resample
 
 AMIN = 1e-10
@@ -84,7 +85,8 @@ def log_mel(
     def compute() -> np.ndarray:
         y = resample(audio.samples, audio.rate, rate)
         basis = mel_filterbank(rate, n_fft, n_mels, fmin, fmax)
-        return power_to_db(_power_frames(y, rate, n_frames, fps, n_fft) @ basis.T)
+        with one_blas_thread():
+            return power_to_db(_power_frames(y, rate, n_frames, fps, n_fft) @ basis.T)
 
     return _log_mels.get(audio, (n_frames, fps, n_mels, rate, n_fft, fmin, fmax), compute)
 
