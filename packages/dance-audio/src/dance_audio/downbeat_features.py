@@ -62,15 +62,18 @@ def diff_frames(frame_size: int) -> int:
     return int(max(1, round((frame_size / 2 - first) / HOP)))
 
 
-def _magnitudes(y: np.ndarray, frame_size: int, n_frames: int) -> np.ndarray:
+def _filtered_magnitudes(y: np.ndarray, frame_size: int, bank: np.ndarray, n_frames: int) -> np.ndarray:
+    """``(n_frames, bands)``: each frame's STFT magnitude (without the Nyquist bin) through ``bank``,
+    a chunk of frames at a time (a 20-minute song never holds its full spectrogram)."""
     half = frame_size // 2
     padded = np.pad(y.astype(np.float32), (half, half + frame_size))
     hop = int(HOP)  # 441 samples exactly, so frame i starts at int(i * hop) - half (+ half padding)
     frames = np.lib.stride_tricks.sliding_window_view(padded, frame_size)[::hop][:n_frames]
     window = np.hanning(frame_size).astype(np.float32)
-    out = np.empty((n_frames, half), dtype=np.float32)
+    out = np.empty((n_frames, bank.shape[1]), dtype=np.float32)
     for lo in range(0, n_frames, CHUNK):
-        out[lo : lo + CHUNK] = np.abs(scipy.fft.rfft(frames[lo : lo + CHUNK] * window, axis=1, workers=-1)[:, :half])
+        spectrum = scipy.fft.rfft(frames[lo : lo + CHUNK] * window, axis=1, workers=-1)
+        out[lo : lo + CHUNK] = np.abs(spectrum[:, :half]) @ bank
     return out
 
 
@@ -79,7 +82,8 @@ def downbeat_input(y: np.ndarray) -> np.ndarray:
     n_frames = int(np.ceil(len(y) / HOP))
     parts = []
     for frame_size, bands in zip(FRAME_SIZES, BANDS_PER_OCTAVE, strict=True):
-        spec = np.log10(_magnitudes(y, frame_size, n_frames) @ triangular_filterbank(frame_size, bands) + 1.0)
+        bank = triangular_filterbank(frame_size, bands)
+        spec = np.log10(_filtered_magnitudes(y, frame_size, bank, n_frames) + 1.0)
         lag = diff_frames(frame_size)
         diff = np.zeros_like(spec)
         diff[lag:] = np.maximum(spec[lag:] - spec[:-lag], 0.0)
