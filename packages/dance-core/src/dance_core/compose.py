@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -10,14 +10,14 @@ import torch
 
 from dance_core.checkpoint import Checkpoint, check_matches, load_checkpoint, load_weights
 from dance_core.data.features import FeatureStack, load_audio
-from dance_core.data.prepare import decode_motion, encode_seed
+from dance_core.data.prepare import decode_motion, encode_seed, stored_representation
 from dance_core.errors import DanceError, DataError, RecipeError
 from dance_core.media import frame_count
 from dance_core.model import ComposedModel, build_model
 from dance_core.protocols import MotionData
 from dance_core.recipe.schema import Recipe
 from dance_core.registry import Registry, get_registry
-from dance_core.runtime import pick_device, progress_bar
+from dance_core.runtime import generation_threads, pick_device, progress_bar
 
 
 @dataclass
@@ -118,6 +118,7 @@ def compose(
         for name in songs[0].streams
     }
     batch = len(songs) * c.samples
+    generation_threads(model, batch, device, c.threads)
     generator = torch.Generator(device=device).manual_seed(recipe.seed)
     torch.manual_seed(recipe.seed)
     with progress_bar(quiet) as bar:
@@ -140,6 +141,8 @@ def compose(
         for k in range(c.samples):
             values = ckpt.stats.motion.invert(motion[i * c.samples + k, : song.n_frames])
             data = decode_motion(ckpt.motion, values, recipe.fps, registry)
+            if c.ground and data.skeleton_motion is not None:
+                data = grounded(data, ckpt.motion, registry)
             data.meta["audio_path"] = song.path
             stem = song.name if c.samples == 1 else f"{song.name}-{k}"
             for entry, fmt in formats:
@@ -147,6 +150,19 @@ def compose(
                 fmt.write(data, str(path))
                 written.append(path)
     return written
+
+
+def grounded(data: MotionData, info: dict, registry: Registry) -> MotionData:
+    """A decoded skeletal dance on the floor with its feet pinned in contact (``compose.ground``),
+    its frame array encoded again from the grounded motion."""
+    from dance_core.motion.grounding import ground
+
+    motion, report = ground(data.skeleton_motion)
+    data.meta["grounding"] = report.summary()
+    if report.skipped:
+        return data
+    rep, _ = stored_representation(info, registry)
+    return replace(data, values=rep.encode(motion).astype(data.values.dtype), skeleton_motion=motion)
 
 
 def _beside_recipe(spec: str | None, recipe: Recipe) -> str | None:

@@ -59,6 +59,25 @@ def _edge_pad(x: torch.Tensor, before: int, after: int) -> torch.Tensor:
     return F.pad(x.transpose(1, 2), (before, after), mode="replicate").transpose(1, 2)
 
 
+def frame_dropout(x: torch.Tensor, p: float, generator: torch.Generator | None = None) -> torch.Tensor:
+    """``(B, T, C)`` with each frame zeroed with probability ``p`` (the reference's input dropouts)."""
+    if p <= 0:
+        return x
+    keep = torch.rand(x.shape[:2], generator=generator, device=generator.device if generator else None) >= p
+    return x * keep.to(x.device, x.dtype).unsqueeze(-1)
+
+
+def motion_noise(x: torch.Tensor, std: float, generator: torch.Generator | None = None) -> torch.Tensor:
+    """``(B, T, C)`` plus Gaussian noise whose std is drawn per segment from ``U(0, std)``, so the model
+    sees past motion from exact to as wrong as its own samples may be."""
+    if std <= 0:
+        return x
+    dev = generator.device if generator else None
+    scale = torch.rand(x.shape[0], 1, 1, generator=generator, device=dev) * std
+    noise = torch.randn(x.shape, generator=generator, device=dev) * scale
+    return x + noise.to(x.device, x.dtype)
+
+
 def _aligned_windows(
     latent: torch.Tensor, motion: torch.Tensor, history: int, frames: int
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -104,10 +123,13 @@ class ComposedModel(nn.Module):
         return self._lead() + w.motion_past + max(head.frames, w.cond_future)
 
     def training_loss(
-        self, motion: torch.Tensor, streams: Mapping[str, torch.Tensor], ctx: TrainContext
+        self, motion: torch.Tensor, streams: Mapping[str, torch.Tensor], ctx: TrainContext, augment: Any = None
     ) -> dict[str, torch.Tensor]:
-        """The head's losses on one batch of aligned segments."""
+        """The head's losses on one batch of aligned segments; ``augment`` (a recipe's
+        ``training.augment``) corrupts the inputs, never the targets, with ``ctx.generator``."""
         w, head = self.window, self.head
+        if augment is not None:
+            streams = {n: frame_dropout(x, augment.input_dropout.get(n, 0.0), ctx.generator) for n, x in streams.items()}
         cond = self.condition(streams)
         if w.song_level:
             h = head.history_frames
@@ -116,10 +138,16 @@ class ComposedModel(nn.Module):
                 return head.loss(latent[:, h:], motion[:, h:], motion[:, :h], ctx)
             return head.loss(*_aligned_windows(latent, motion, h, head.frames), ctx)
         t = self._lead() + w.motion_past
+        past = motion[:, :t]
+        if augment is not None:
+            past = motion_noise(past, augment.motion_noise, ctx.generator)
         window = {n: x[:, t - w.cond_past : t + w.cond_future] for n, x in cond.items()}
-        latent = self.encoder(motion[:, t - w.motion_past : t], window)
+        seen = past[:, t - w.motion_past :]
+        if augment is not None:
+            seen = frame_dropout(seen, augment.input_dropout.get("motion", 0.0), ctx.generator)
+        latent = self.encoder(seen, window)
         target = motion[:, t : t + head.frames]
-        return head.loss(latent, target, motion[:, t - head.history_frames : t], ctx)
+        return head.loss(latent, target, past[:, t - head.history_frames :], ctx)
 
     def start_frames(self) -> int:
         """Frames the seed motion fills at the start of a generated dance."""

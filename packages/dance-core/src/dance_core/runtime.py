@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import random
 from contextlib import contextmanager
 
@@ -24,6 +25,23 @@ def pick_device(name: str = "auto", threads: int | None = None) -> torch.device:
     if (name == "cuda" and not cuda) or (name == "mps" and not mps):
         raise DanceError(f"device {name!r} is not available on this machine (use 'auto' or 'cpu')")
     return torch.device(name)
+
+
+#: below this many parameters x streams, one CPU thread generates fastest (and two fight on a busy machine)
+SMALL_WORK = 20_000_000
+
+
+def generation_threads(model: torch.nn.Module, batch: int, device: torch.device, threads: int | None) -> int:
+    """Set and return torch's CPU threads for generation: ``threads`` when given; else one thread for
+    small work (a few small-model streams: each step is a chain of tiny matrix products, where a
+    second thread only adds synchronisation), else up to 4 of the machine's cores."""
+    if device.type != "cpu":
+        return torch.get_num_threads()
+    if threads is None:
+        work = sum(p.numel() for p in model.parameters()) * batch
+        threads = 1 if work < SMALL_WORK else max(1, min(4, os.cpu_count() or 1))
+    torch.set_num_threads(threads)
+    return threads
 
 
 def seed_everything(seed: int) -> None:

@@ -26,7 +26,7 @@ from dance_core.data.features import FeatureStack
 from dance_core.data.prepare import dataset_sources, motion_info, to_clip
 from dance_core.data.sampling import SegmentSampler, split_clips
 from dance_core.data.stats import NormStats
-from dance_core.errors import CheckpointError, TrainingError
+from dance_core.errors import CheckpointError, RecipeError, TrainingError
 from dance_core.model import ComposedModel, build_model
 from dance_core.protocols import TrainContext
 from dance_core.recipe.schema import Recipe, StageSpec
@@ -93,6 +93,10 @@ class Trainer:
         self.device = pick_device(self.t.device, self.t.threads)
         seed_everything(recipe.seed)
         self.stack = FeatureStack(recipe)
+        unknown = sorted(set(self.t.augment.input_dropout) - {"motion", *self.stack.dims()})
+        if unknown:
+            raise RecipeError(f"{recipe._origin}: training.augment.input_dropout.{unknown[0]}: no input of that name "
+                              f"(inputs: motion, {', '.join(self.stack.dims())})")
         sources = dataset_sources(recipe)
         clips = []
         with progress_bar(quiet) as bar:
@@ -135,7 +139,8 @@ class Trainer:
     def _context(self, step: int, stage: StageSpec) -> TrainContext:
         epoch = step // self.steps_per_epoch
         values = {n: float(f(step, epoch, self.total)) for n, f in self.schedules.items()}
-        return TrainContext(step=step, epoch=epoch, stage=stage.name, values=values)
+        generator = torch.Generator().manual_seed((self.recipe.seed * 1_000_003 + step) % 2**63)  # same step, same draws
+        return TrainContext(step=step, epoch=epoch, stage=stage.name, values=values, generator=generator)
 
     def validate(self, step: int, stage: StageSpec) -> float | None:
         """Mean validation loss over fixed batches."""
@@ -234,7 +239,7 @@ class Trainer:
     def _step(self, step: int, optimizer: torch.optim.Optimizer, ctx: TrainContext) -> float:
         motion, streams = self.sampler.batch(step, self.device)
         with _autocast(self.device, self.precision):
-            loss = self.model.training_loss(motion, streams, ctx)["loss"]
+            loss = self.model.training_loss(motion, streams, ctx, self.t.augment)["loss"]
         value = float(loss.detach())
         if not math.isfinite(value):
             self._stop(step, f"loss is {value}", ctx)

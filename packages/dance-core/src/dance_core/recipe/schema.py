@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, PositiveInt, PrivateAttr
+from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, PositiveInt, PrivateAttr, field_validator
 
 
 class Strict(BaseModel):
@@ -74,6 +74,27 @@ class StageSpec(Strict):
     lr: PositiveFloat | None = None
 
 
+class AugmentSpec(Strict):
+    """Training-time corruption of the model's inputs (never of its targets), against a model that
+    leans on its own motion history and ignores the music, or that cannot recover from its errors."""
+
+    motion_noise: float = Field(
+        0.0, ge=0.0, description="std of Gaussian noise on past motion (normalized units), per segment ~U(0, std)"
+    )
+    input_dropout: dict[str, float] = Field(
+        default_factory=dict,
+        description="per input ('motion' or a feature stream name): probability that a frame is zeroed",
+    )
+
+    @field_validator("input_dropout")
+    @classmethod
+    def _probabilities(cls, v: dict[str, float]) -> dict[str, float]:
+        for name, p in v.items():
+            if not 0.0 <= p < 1.0:
+                raise ValueError(f"input_dropout.{name}: {p} is not a probability in [0, 1)")
+        return v
+
+
 class TrainingSpec(Strict):
     """Optimization, schedules, devices, checkpoints and logging."""
 
@@ -93,6 +114,7 @@ class TrainingSpec(Strict):
     checkpoint_every: PositiveInt = 500
     log_every: PositiveInt = 25
     stages: list[StageSpec] | None = None
+    augment: AugmentSpec = Field(default_factory=AugmentSpec)
     output: str = Field("runs/{name}", description="run folder; {name} is the recipe name")
 
     def stage_list(self) -> list[StageSpec]:
@@ -115,7 +137,12 @@ class ComposeSpec(Strict):
     formats: list[str] = Field(default_factory=lambda: ["npz"])
     out_dir: str = "out"
     device: Literal["auto", "cpu", "cuda", "mps"] = "auto"
-    threads: PositiveInt | None = Field(None, description="CPU threads for torch (default: torch's choice)")
+    threads: PositiveInt | None = Field(
+        None, description="CPU threads for torch (default: 1 for small models on CPU, else up to 4)"
+    )
+    ground: bool = Field(
+        True, description="put skeletal dances on the floor and pin feet in contact (dance_core.motion.grounding)"
+    )
 
 
 class Recipe(Strict):
