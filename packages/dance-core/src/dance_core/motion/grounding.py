@@ -1,0 +1,261 @@
+"""Grounding: put a skeletal dance on the floor and stop its feet from skating.
+
+What an animator fixes by hand in generated motion, done in three steps:
+
+1. **Contacts.** Each foot's sole height is the lower of its ankle and toe joints less their
+   height above the sole (``sole`` for the toe joint; the ankle's is that plus its rest height
+   above the toe). A foot is in contact while it is near the floor *the motion stands on* (the
+   lowest sole over a ``floor_window``, so a dancer floating or sunk as a whole still has contacts)
+   and slow (the slower of its ankle and toe; horizontal speed, or vertical when that is larger, so
+   a foot taking off or landing is not in contact). Hysteresis: a contact starts below
+   ``contact_height`` and ``contact_speed`` and lasts until the foot rises above
+   ``release_height`` or moves faster than ``release_speed``; gaps and spans shorter than
+   ``min_contact`` are flickers and are removed.
+2. **Height.** On frames with a contact, the root moves vertically so that the lowest contact
+   foot touches ``y = 0``; between contacts the correction is interpolated, so a jump (no contact)
+   keeps its flight. The correction is smoothed (Gaussian, ``smoothing`` seconds) and then raised
+   smoothly wherever a foot would still be below the floor.
+3. **Skating.** During each contact span the ankle is pinned horizontally to its mean position
+   over the span, and hip and knee are solved by two-bone IK (:mod:`dance_core.motion.ik`),
+   blending in and out over ``blend`` seconds; the ankle keeps its world orientation, so the toe
+   follows. The root's horizontal track and every joint outside the legs stay exactly as they were.
+
+Distances are in metres: skeletons in ``m``, ``cm`` or ``mm`` are converted; for others (BVH files
+in "file" units) the unit is guessed from the leg's length (see :func:`metres_per_unit`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.ndimage import gaussian_filter1d, maximum_filter1d, median_filter, minimum_filter1d
+
+from dance_core.evaluation.contact import FEET_BY_NAME
+from dance_core.motion.fk import forward_kinematics
+from dance_core.motion.ik import two_bone_ik
+from dance_core.motion.motion import Motion
+from dance_core.motion.rotations import quat_conj, quat_mul
+from dance_core.motion.skeleton import Skeleton
+
+_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+
+
+@dataclass(frozen=True)
+class GroundingOptions:
+    """Thresholds of the grounding step, in metres, metres per second and seconds."""
+
+    sole: float = 0.03  # the toe joint's height above the sole (SMPL's is 2-5 cm)
+    contact_height: float = 0.05  # a contact starts with the sole this close to the floor ...
+    release_height: float = 0.08  # ... and ends when it rises above this
+    contact_speed: float = 0.5  # horizontal foot speed under which a contact starts ...
+    release_speed: float = 0.8  # ... and over which it ends
+    min_contact: float = 0.1  # shorter contacts, and shorter gaps within one, are flickers
+    floor_window: float = 2.0  # the floor the motion stands on: its lowest sole over this window
+    smoothing: float = 0.1  # standard deviation of the Gaussian smoothing the height correction
+    blend: float = 0.15  # the foot pinning fades in and out over this at a span's edges
+    reference_leg: float = 0.8  # hip to ankle, to guess the units of skeletons without known units
+
+
+@dataclass
+class GroundingReport:
+    """What grounding did: contact spans per foot, root correction and foot skating (metres)."""
+
+    contacts: tuple[int, int] = (0, 0)  # contact spans of the left and right foot
+    contact_fraction: float = 0.0  # frames with at least one foot in contact
+    mean_correction: float = 0.0  # mean vertical root change (m; negative: lowered)
+    skating_before: float = 0.0  # mean horizontal speed of feet in contact (m/s)
+    skating_after: float = 0.0
+    skipped: bool = False
+    note: str = ""  # why grounding was skipped, or what it could not do
+
+    def summary(self) -> str:
+        """One line for logs."""
+        if self.skipped:
+            return f"grounding skipped: {self.note}"
+        line = (f"grounded: {sum(self.contacts)} contacts ({100 * self.contact_fraction:.0f}% of frames), "
+                f"root moved {100 * self.mean_correction:+.1f} cm on average, skating "
+                f"{100 * self.skating_before:.1f} -> {100 * self.skating_after:.1f} cm/s")
+        return f"{line}; {self.note}" if self.note else line
+
+
+def find_feet(skeleton: Skeleton) -> tuple[int, int, int, int] | None:
+    """Indices of (left ankle, left toe, right ankle, right toe), or None when the names are unknown."""
+    for names in FEET_BY_NAME:
+        if all(n in skeleton.names for n in names):
+            return tuple(skeleton.names.index(n) for n in names)  # type: ignore[return-value]
+    return None
+
+
+def metres_per_unit(skeleton: Skeleton, feet: tuple[int, int, int, int], options: GroundingOptions) -> float:
+    """The skeleton's unit in metres: from ``units`` when known; else metres, centimetres or
+    millimetres, whichever makes the leg (hip to ankle) 0.4-1.3 m long; else ``reference_leg`` / leg."""
+    if skeleton.units in _UNITS:
+        return _UNITS[skeleton.units]
+    knee = skeleton.parents[feet[0]]
+    leg = float(np.linalg.norm(skeleton.offsets[feet[0]]) + np.linalg.norm(skeleton.offsets[knee]))
+    for unit in _UNITS.values():
+        if 0.4 <= leg * unit <= 1.3:
+            return unit
+    return options.reference_leg / max(leg, 1e-9)
+
+
+def sole_heights(motion: Motion, positions: np.ndarray, feet: tuple[int, int, int, int], sole: float) -> np.ndarray:
+    """``(T, 2)`` heights of the left and right soles above ``y = 0`` (``sole`` in skeleton units)."""
+    rest = motion.skeleton.rest_positions()
+    out = []
+    for ankle, toe in (feet[:2], feet[2:]):
+        rise = max(0.0, rest[ankle, 1] - rest[toe, 1])
+        out.append(np.minimum(positions[:, toe, 1] - sole, positions[:, ankle, 1] - sole - rise))
+    return np.stack(out, axis=1)
+
+
+def foot_speeds(positions: np.ndarray, feet: tuple[int, int, int, int], fps: float,
+                vertical: bool = False) -> np.ndarray:
+    """``(T, 2)`` horizontal speeds of the feet, the slower of ankle and toe (units per second); with
+    ``vertical``, each joint's vertical speed counts instead when it is the larger."""
+    p = positions[:, list(feet)]
+    if len(p) < 2:
+        return np.zeros((len(p), 2))
+    v = np.gradient(p, axis=0) * fps
+    speed = np.linalg.norm(v[..., [0, 2]], axis=-1)
+    if vertical:
+        speed = np.maximum(speed, np.abs(v[..., 1]))
+    return np.stack([speed[:, :2].min(1), speed[:, 2:].min(1)], axis=1)
+
+
+def foot_contacts(heights: np.ndarray, speeds: np.ndarray, fps: float, options: GroundingOptions,
+                  unit: float = 1.0) -> np.ndarray:
+    """``(T, 2)`` contact flags from sole heights and foot speeds (skeleton units of ``unit`` metres)."""
+    lowest = median_filter(heights.min(1), size=3, mode="nearest")  # a one-frame dip is no floor
+    window = max(1, int(round(options.floor_window * fps)) | 1)
+    above = heights - minimum_filter1d(lowest, window, mode="nearest")[:, None]
+    near_on, near_off = above < options.contact_height / unit, above < options.release_height / unit
+    slow_on, slow_off = speeds < options.contact_speed / unit, speeds < options.release_speed / unit
+    contacts = np.zeros(heights.shape, bool)
+    for f in range(heights.shape[1]):
+        on = False
+        for t in range(len(heights)):
+            on = (near_off[t, f] and slow_off[t, f]) if on else (near_on[t, f] and slow_on[t, f])
+            contacts[t, f] = on
+    shortest = max(2, int(np.ceil(options.min_contact * fps - 1e-9)))
+    for f in range(contacts.shape[1]):
+        for start, stop in _runs(~contacts[:, f]):
+            if start > 0 and stop < len(contacts) and stop - start < shortest:
+                contacts[start:stop, f] = True
+        for start, stop in _runs(contacts[:, f]):
+            if stop - start < shortest:
+                contacts[start:stop, f] = False
+    return contacts
+
+
+def vertical_correction(heights: np.ndarray, contacts: np.ndarray, fps: float, options: GroundingOptions) -> np.ndarray:
+    """``(T,)`` smooth root height change: contact feet onto the floor, no foot below it."""
+    t = np.arange(len(heights))
+    known = contacts.any(1)
+    if known.any():
+        lowest_contact = np.where(contacts, heights, np.inf).min(1)
+        c = np.interp(t, t[known], -lowest_contact[known])
+    else:
+        c = np.zeros(len(heights))
+    sigma = options.smoothing * fps
+    if sigma > 0:
+        c = gaussian_filter1d(c, sigma, mode="nearest", truncate=3.0)
+    deficit = np.maximum(0.0, -heights.min(1) - c)
+    if deficit.any():
+        radius = int(3.0 * sigma + 0.5) if sigma > 0 else 0
+        # the widened deficit averages to at least the deficit everywhere, so no foot stays below
+        widened = maximum_filter1d(deficit, 2 * radius + 1, mode="nearest")
+        c = c + (gaussian_filter1d(widened, sigma, mode="nearest", truncate=3.0) if sigma > 0 else widened)
+    return c
+
+
+def pin_feet(motion: Motion, feet: tuple[int, int, int, int], contacts: np.ndarray, blend_frames: int) -> Motion:
+    """The motion with each contact span's ankle pinned horizontally by leg IK (legs only change)."""
+    skel = motion.skeleton
+    pos, world = forward_kinematics(skel, motion.root, motion.rotations)
+    rot = motion.rotations.copy()
+    for f, (ankle, toe) in enumerate((feet[:2], feet[2:])):
+        knee = skel.parents[ankle]
+        hip = skel.parents[knee] if knee > 0 else -1
+        if hip <= 0:
+            continue  # the leg hangs off the root: moving it would move the body
+        weight, pinned = _pin_targets(pos[:, ankle], contacts[:, f], blend_frames)
+        frames = np.flatnonzero(weight > 0)
+        if not len(frames):
+            continue
+        target = pos[frames, ankle].copy()
+        target[:, [0, 2]] += weight[frames, None] * (pinned[frames] - target[:, [0, 2]])
+        forward = pos[frames, toe] - pos[frames, ankle]
+        forward[:, 1] = 0.0
+        q_hip, q_knee = two_bone_ik(pos[frames, hip], pos[frames, knee], pos[frames, ankle], target, forward)
+        hip_w = quat_mul(q_hip, world[frames, hip])
+        knee_w = quat_mul(q_hip, quat_mul(q_knee, world[frames, knee]))
+        for j, local in ((hip, quat_mul(quat_conj(world[frames, skel.parents[hip]]), hip_w)),
+                         (knee, quat_mul(quat_conj(hip_w), knee_w)),
+                         (ankle, quat_mul(quat_conj(knee_w), world[frames, ankle]))):
+            same_side = (local * rot[frames, j]).sum(-1, keepdims=True) >= 0
+            rot[frames, j] = np.where(same_side, local, -local)
+    return replace(motion, rotations=rot)
+
+
+def ground(motion: Motion, options: GroundingOptions | None = None) -> tuple[Motion, GroundingReport]:
+    """The motion on the floor without foot skating, and a report; unchanged (with a note) when the
+    motion has no rotations or its skeleton no recognisable feet."""
+    options = options or GroundingOptions()
+    if motion.rotations is None:
+        return motion, GroundingReport(skipped=True, note="the motion has joint positions only")
+    feet = find_feet(motion.skeleton)
+    if feet is None:
+        note = f"skeleton {motion.skeleton.name!r} has no joints named as feet"
+        return motion, GroundingReport(skipped=True, note=note)
+    if motion.n_frames < 2:
+        return motion, GroundingReport(skipped=True, note="a single frame")
+    unit = metres_per_unit(motion.skeleton, feet, options)
+    pos = motion.positions()
+    heights = sole_heights(motion, pos, feet, options.sole / unit)
+    speeds = foot_speeds(pos, feet, motion.fps)
+    contacts = foot_contacts(heights, foot_speeds(pos, feet, motion.fps, vertical=True), motion.fps, options, unit)
+    correction = vertical_correction(heights, contacts, motion.fps, options)
+    root = motion.root.copy()
+    root[:, 1] += correction
+    lifted = replace(motion, root=root)
+    grounded = pin_feet(lifted, feet, contacts, int(round(options.blend * motion.fps)))
+    after = foot_speeds(grounded.positions(), feet, motion.fps)
+    report = GroundingReport(
+        contacts=tuple(len(_runs(contacts[:, f])) for f in range(2)),  # type: ignore[arg-type]
+        contact_fraction=float(contacts.any(1).mean()),
+        mean_correction=float(correction.mean() * unit),
+        skating_before=float(speeds[contacts].mean() * unit) if contacts.any() else 0.0,
+        skating_after=float(after[contacts].mean() * unit) if contacts.any() else 0.0,
+        note="" if contacts.any() else "no foot contact found; only feet below the floor were raised",
+    )
+    return grounded, report
+
+
+def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
+    """``[start, stop)`` of each run of True."""
+    edges = np.diff(np.concatenate([[0], flags.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist(), strict=True))
+
+
+def _pin_targets(ankle: np.ndarray, contact: np.ndarray, blend: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per frame, the pinning weight (1 in a span, smoothstep fades ``blend`` frames either side)
+    and the pinned horizontal position (the span's mean ankle position) of the strongest span."""
+    n = len(contact)
+    weight = np.zeros(n)
+    pinned = np.zeros((n, 2))
+    for start, stop in _runs(contact):
+        w = np.zeros(n)
+        w[start:stop] = 1.0
+        for k in range(1, blend + 1):
+            s = 1.0 - k / (blend + 1)
+            fade = s * s * (3 - 2 * s)
+            if start - k >= 0:
+                w[start - k] = fade
+            if stop - 1 + k < n:
+                w[stop - 1 + k] = fade
+        stronger = w > weight
+        weight[stronger] = w[stronger]
+        pinned[stronger] = ankle[start:stop][:, [0, 2]].mean(0)
+    return weight, pinned

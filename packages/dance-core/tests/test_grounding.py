@@ -1,0 +1,185 @@
+"""Grounding on crafted SMPL-24 motion: floating, sinking, jumps, skating, and motion already right."""
+
+import numpy as np
+import pytest
+
+from dance_core.motion.grounding import GroundingOptions, find_feet, ground, sole_heights
+from dance_core.motion.ik import two_bone_ik
+from dance_core.motion.motion import Motion
+from dance_core.motion.rotations import expmap_to_quat, quat_rotate
+from dance_core.motion.skeleton import Skeleton
+from dance_core.motion.skeletons import SMPL_REST, smpl24, transflower21
+
+FPS = 20.0
+SOLE = GroundingOptions().sole
+#: root height with the lower toe joint ``SOLE`` above the floor, SMPL-24 at rest
+STAND = float(SMPL_REST[0, 1] - SMPL_REST[[10, 11], 1].min() + SOLE)
+L_SHOULDER, R_SHOULDER, L_ELBOW, SPINE3, NECK = 16, 17, 18, 9, 12
+LEGS = {1, 2, 4, 5, 7, 8, 10, 11}  # hips, knees, ankles, toes
+UPPER = [j for j in range(24) if j not in LEGS and j != 0]
+
+
+def dancer(seconds=4.0, lift=0.0):
+    """A standing SMPL-24 dancer waving its arms and nodding (feet still), root ``lift`` above standing."""
+    n = int(seconds * FPS)
+    t = np.arange(n) / FPS
+    rot = np.zeros((n, 24, 3))
+    rot[:, L_SHOULDER, 2] = -1.2 + 0.5 * np.sin(2 * np.pi * t)
+    rot[:, R_SHOULDER, 2] = 1.2 + 0.5 * np.sin(2 * np.pi * t + 1)
+    rot[:, L_ELBOW, 1] = -0.4 + 0.3 * np.sin(4 * np.pi * t)
+    rot[:, SPINE3, 1] = 0.2 * np.sin(np.pi * t)
+    rot[:, NECK, 0] = 0.15 * np.sin(4 * np.pi * t)
+    root = np.zeros((n, 3))
+    root[:, 1] = STAND + lift
+    return Motion(smpl24(), FPS, root, expmap_to_quat(rot))
+
+
+def soles(motion):
+    """Per frame, the lower sole's height above the floor."""
+    return sole_heights(motion, motion.positions(), find_feet(motion.skeleton), SOLE).min(1)
+
+
+def horizontal_speed(motion, joint):
+    xz = motion.positions()[:, joint][:, [0, 2]]
+    return np.linalg.norm(np.diff(xz, axis=0), axis=-1) * motion.fps
+
+
+def test_feet_are_found_by_name_and_a_skeleton_without_feet_is_skipped():
+    assert find_feet(smpl24()) == (7, 10, 8, 11)
+    tf = transflower21()
+    assert [tf.names[j] for j in find_feet(tf)] == ["LeftFoot", "LeftToeBase", "RightFoot", "RightToeBase"]
+    stick = Skeleton(["root", "a", "b"], [-1, 0, 1], np.array([[0, 1.0, 0], [0, -0.5, 0], [0, -0.5, 0]]))
+    m = Motion(stick, FPS, np.ones((10, 3)), np.tile([0.0, 0, 0, 1], (10, 3, 1)))
+    out, report = ground(m)
+    assert out is m and report.skipped and "feet" in report.note
+    assert report.summary().startswith("grounding skipped")
+
+
+def test_a_floating_dancer_is_put_back_on_the_floor():
+    m = dancer(lift=0.30)
+    assert soles(m).min() > 0.29
+    out, report = ground(m)
+    assert report.contacts == (1, 1) and report.contact_fraction == 1.0
+    np.testing.assert_allclose(soles(out), 0.0, atol=1e-3)
+    assert report.mean_correction == pytest.approx(-0.30, abs=1e-3)
+
+
+def test_a_sunk_dancer_is_raised():
+    m = dancer(lift=-0.12)
+    out, report = ground(m)
+    assert sum(report.contacts) >= 2
+    np.testing.assert_allclose(soles(out), 0.0, atol=1e-3)
+    assert report.mean_correction == pytest.approx(0.12, abs=1e-3)
+
+
+@pytest.mark.parametrize("lift", [0.0, 0.3])
+def test_a_jump_stays_in_the_air(lift):
+    m = dancer(lift=lift)
+    t = np.arange(m.n_frames) / FPS
+    flight = (t >= 1.8) & (t < 2.2)  # 0.4 s in the air, 20 cm up at the top
+    m.root[flight, 1] += 0.2 * np.sin(np.pi * (t[flight] - 1.8) / 0.4)
+    out, report = ground(m)
+    h = soles(out)
+    assert h[~flight].max() < 0.01 and h.min() > -1e-6  # on the floor before and after, never below
+    top = np.argmax(m.root[:, 1])
+    assert h[top] > 0.17  # still jumps (nearly) as high
+    assert report.mean_correction == pytest.approx(-lift, abs=0.01)
+
+
+def test_a_skating_foot_is_pinned_and_nothing_but_the_legs_moves():
+    m = dancer(seconds=3.0)
+    t = np.arange(m.n_frames) / FPS
+    # the body slides 10 cm sideways in a second while the feet should stay planted
+    m.root[:, 0] += 0.10 * np.clip(t - 1.0, 0, 1) ** 2 * (3 - 2 * np.clip(t - 1.0, 0, 1))
+    ankle = 7
+    assert horizontal_speed(m, ankle).max() > 0.1
+    out, report = ground(m)
+    assert report.contacts == (1, 1)
+    assert horizontal_speed(out, ankle).max() < 0.01  # was 15 cm/s
+    assert report.skating_after < 0.1 * report.skating_before
+    # the root's horizontal track and the upper body around the root are as they were
+    np.testing.assert_array_equal(out.root[:, [0, 2]], m.root[:, [0, 2]])
+    before, after = m.positions(), out.positions()
+    np.testing.assert_allclose(after[:, UPPER] - out.root[:, None], before[:, UPPER] - m.root[:, None], atol=1e-9)
+    np.testing.assert_array_equal(out.rotations[:, UPPER + [0]], m.rotations[:, UPPER + [0]])
+    # the legs still have their bone lengths (IK only rotates)
+    bones = [(1, 4), (4, 7), (7, 10)]
+    for a, b in bones:
+        np.testing.assert_allclose(np.linalg.norm(after[:, a] - after[:, b], axis=-1),
+                                   np.linalg.norm(before[:, a] - before[:, b], axis=-1), atol=1e-9)
+
+
+def test_a_grounded_dance_is_left_alone():
+    m = dancer()
+    out, report = ground(m)
+    assert report.contacts == (1, 1)
+    assert np.abs(out.positions() - m.positions()).max() < 1e-3
+    assert abs(report.mean_correction) < 1e-6
+
+
+def test_units_other_than_metres():
+    skel = transflower21()  # centimetres
+    n = 60
+    root = np.zeros((n, 3))
+    root[:, 1] = 150.0  # floating: the rest soles are near 95 cm
+    m = Motion(skel, FPS, root, np.tile([0.0, 0, 0, 1], (n, len(skel), 1)))
+    out, report = ground(m)
+    feet = find_feet(skel)
+    h = sole_heights(out, out.positions(), feet, 100 * SOLE).min(1)
+    np.testing.assert_allclose(h, 0.0, atol=0.1)
+    rest = skel.rest_positions()
+    toe_below_root = rest[0, 1] - rest[feet[1], 1]  # 94 cm
+    assert report.mean_correction == pytest.approx(-(150.0 - toe_below_root - 100 * SOLE) / 100, abs=1e-4)
+
+
+def test_two_bone_ik_reaches_and_bends_a_straight_limb_forwards():
+    hip, knee, ankle = np.array([[0.0, 1, 0]]), np.array([[0.0, 0.5, 0]]), np.array([[0.0, 0, 0]])
+    target = np.array([[0.0, 0.2, 0.1]])
+    q_hip, q_knee = two_bone_ik(hip, knee, ankle, target, np.array([[0.0, 0, 1]]))
+    new_knee = hip + quat_rotate(q_hip, knee - hip)
+    new_ankle = new_knee + quat_rotate(q_hip, quat_rotate(q_knee, ankle - knee))
+    np.testing.assert_allclose(new_ankle, target, atol=1e-9)
+    assert new_knee[0, 2] > 0.1  # the knee goes forwards
+
+
+@pytest.fixture(scope="module")
+def floating_checkpoint(tmp_path_factory):
+    """A tiny core-dance model trained on dancers that float 30 cm above the floor."""
+    from dance_core.components.synthetic import click_track
+    from dance_core.components.wav import write_wav
+    from dance_core.formats.bvh import BvhFormat
+    from dance_core.recipe import load_recipe
+    from dance_core.train import train
+
+    data = tmp_path_factory.mktemp("floating")
+    for k in range(4):
+        m = dancer(seconds=6.0, lift=0.30)
+        m.root[:, 0] += 0.1 * k
+        BvhFormat().write_motion(m, data / f"song{k}.bvh")
+        beats = np.arange(0.0, 6.0, 0.5 + 0.05 * k)
+        write_wav(data / f"song{k}.wav", click_track(beats, 6.0, 16000, np.random.default_rng(k)), 16000)
+    tiny = [f"data.dataset={{plugin: folder, path: {data}}}", "data.val_fraction=0.25", "data.mirror=false",
+            "training.steps=30", "training.batch_size=16", "training.val_every=30", "training.checkpoint_every=30"]
+    recipe = load_recipe("core-dance", tiny)
+    return recipe, train(recipe, out=str(tmp_path_factory.mktemp("run")), quiet=True).checkpoint, data
+
+
+@pytest.mark.parametrize("on", [True, False])
+def test_compose_grounds_skeletal_dances(floating_checkpoint, tmp_path, on):
+    from dance_core.compose import compose, read_motion
+    from dance_core.recipe import load_recipe
+    from dance_core.registry import get_registry
+
+    recipe, checkpoint, data = floating_checkpoint
+    recipe = load_recipe("core-dance", [f"data.dataset={{plugin: folder, path: {data}}}", "data.mirror=false",
+                                        "compose.formats=[bvh, npz]", f"compose.ground={str(on).lower()}"])
+    assert recipe.compose.ground is on
+    paths = compose(recipe, music=[str(data / "song0.wav")], checkpoint=str(checkpoint),
+                    out_dir=str(tmp_path), quiet=True)
+    bvh = next(p for p in paths if p.suffix == ".bvh")
+    motion = read_motion(bvh, get_registry()).skeleton_motion
+    lowest = soles(motion)
+    if on:
+        assert lowest.min() > -2e-3 and np.median(lowest) < 5e-3  # on the floor, not below it
+    else:
+        assert np.median(lowest) > 0.2  # the model floats like its training data
