@@ -1,5 +1,7 @@
 """A self-contained HTML player: motion and music embedded, orbit camera, play/pause/scrub, audio-driven clock.
 
+The camera follows the dancer: its view centre is the root's ground position smoothed over time
+(computed here and embedded), its distance is set by the body's size, not by the room danced in.
 No CDN, no third-party script, no network reference: the page opens offline from a single file.
 """
 
@@ -10,6 +12,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+from scipy.signal import filtfilt
 
 from dance_core.atomic import write_text
 from dance_core.errors import DataError
@@ -42,44 +45,53 @@ __AUDIO__
 const D = JSON.parse(document.getElementById("motion").textContent);
 const J = D.parents.length, T = D.frames, fps = D.fps;
 const P = D.positions;  // flat: frame-major, joint, xyz
+const F = D.follow;     // flat: frame-major, smoothed root x, z (the view centre)
 const cv = document.getElementById("view"), g = cv.getContext("2d");
 const scrub = document.getElementById("scrub"), playBtn = document.getElementById("play");
 const clock = document.getElementById("clock"), audio = document.getElementById("music");
 document.getElementById("title").textContent = D.title;
 scrub.max = T - 1;
 let az = 0.6, el = 0.25, zoom = 1.0, playing = false, frame = 0, t0 = 0, f0 = 0;
-let minY = Infinity, maxY = -Infinity, cx = 0, cz = 0, far = 0;
-for (let i = 0; i < P.length; i += 3) { minY = Math.min(minY, P[i+1]); maxY = Math.max(maxY, P[i+1]); }
-for (let t = 0; t < T; t++) { cx += P[t*J*3] / T; cz += P[t*J*3+2] / T; }
-for (let t = 0; t < T; t++) { far = Math.max(far, Math.hypot(P[t*J*3]-cx, P[t*J*3+2]-cz)); }
-const H = Math.max(maxY - minY, 1e-6), cy = minY + H / 2;
-function project(x, y, z) {
+const H = Math.max(D.body, 1e-6), floor = D.floor, cy = floor + D.stature / 2, step = H / 2;
+let cam = null;
+function camera(f) {  // basis and eye for frame f: looks at the followed root from a body-sized distance
   const ce = Math.cos(el), se = Math.sin(el);
   const fx = -Math.sin(az)*ce, fy = -se, fz = -Math.cos(az)*ce;
-  let rx = fy*0 - fz*1, ry = 0, rz = fx*1 - fy*0; const rn = Math.hypot(rx, rz); rx /= rn; rz /= rn;
-  const ux = ry*fz - rz*fy, uy = rz*fx - rx*fz, uz = rx*fy - ry*fx;
-  const dist = (2.2*H + 2*far) * zoom;
-  const ex = cx - fx*dist, ey = cy - fy*dist, ez = cz - fz*dist;
-  const dx = x-ex, dy = y-ey, dz = z-ez, depth = Math.max(dx*fx+dy*fy+dz*fz, 1e-3);
-  const s = 1.7 / depth * cv.height / 2;
-  return [cv.width/2 + (dx*rx+dy*ry+dz*rz)*s, cv.height/2 - (dx*ux+dy*uy+dz*uz)*s];
+  const rn = Math.hypot(fz, fx), rx = -fz/rn, rz = fx/rn;
+  const ux = -rz*fy, uy = rz*fx - rx*fz, uz = rx*fy;
+  const dist = (1.7*H + 1.5*D.wander) * zoom;
+  const cx = F[2*f], cz = F[2*f+1];
+  return {cx, cz, fx, fy, fz, rx, rz, ux, uy, uz, ex: cx - fx*dist, ey: cy - fy*dist, ez: cz - fz*dist,
+          near: 0.05 * H, s: 1.7 * cv.height / 2};
 }
+function toCam(x, y, z) {
+  const c = cam, dx = x-c.ex, dy = y-c.ey, dz = z-c.ez;
+  return [dx*c.rx + dz*c.rz, dx*c.ux + dy*c.uy + dz*c.uz, dx*c.fx + dy*c.fy + dz*c.fz];
+}
+function toPix(q) { const d = Math.max(q[2], cam.near), s = cam.s / d;
+  return [cv.width/2 + q[0]*s, cv.height/2 - q[1]*s]; }
+function project(x, y, z) { return toPix(toCam(x, y, z)); }
+function line(a, b) {  // a world segment, clipped to the near plane
+  let p = toCam(a[0], a[1], a[2]), q = toCam(b[0], b[1], b[2]); const n = cam.near;
+  if (p[2] < n && q[2] < n) return;
+  if (p[2] < n || q[2] < n) { const k = (n - p[2]) / (q[2] - p[2]), m = [0, 1, 2].map(i => p[i] + k*(q[i]-p[i]));
+    if (p[2] < n) p = m; else q = m; }
+  const u = toPix(p), v = toPix(q);
+  g.beginPath(); g.moveTo(u[0], u[1]); g.lineTo(v[0], v[1]); g.stroke();
+}
+const view = {frame: 0, bbox: [0, 0, 0, 0], width: cv.width, height: cv.height};
 function draw() {
+  cam = camera(frame);
   g.clearRect(0, 0, cv.width, cv.height);
-  const step = H / 2, n = Math.ceil((far + H) / step) + 1;
+  const n = 12, gx = Math.round(cam.cx / step) * step, gz = Math.round(cam.cz / step) * step;
   g.strokeStyle = "#e2e2e2"; g.lineWidth = 1;
-  for (let k = -n; k <= n; k++) {
-    let a = project(cx + k*step, minY, cz - n*step), b = project(cx + k*step, minY, cz + n*step);
-    g.beginPath(); g.moveTo(a[0], a[1]); g.lineTo(b[0], b[1]); g.stroke();
-    a = project(cx - n*step, minY, cz + k*step); b = project(cx + n*step, minY, cz + k*step);
-    g.beginPath(); g.moveTo(a[0], a[1]); g.lineTo(b[0], b[1]); g.stroke();
+  for (let k = -n; k <= n; k++) {  // floor lines fixed in the world, around the view centre
+    line([gx + k*step, floor, gz - n*step], [gx + k*step, floor, gz + n*step]);
+    line([gx - n*step, floor, gz + k*step], [gx + n*step, floor, gz + k*step]);
   }
-  g.strokeStyle = "#8bc34a"; g.lineWidth = 2; g.beginPath();
-  for (let t = Math.max(0, frame - 3*fps|0); t <= frame; t++) {
-    const q = project(P[t*J*3], minY, P[t*J*3+2]);
-    if (t === Math.max(0, frame - 3*fps|0)) g.moveTo(q[0], q[1]); else g.lineTo(q[0], q[1]);
-  }
-  g.stroke();
+  g.strokeStyle = "#8bc34a"; g.lineWidth = 2;
+  for (let t = Math.max(0, frame - 3*fps|0); t < frame; t++)
+    line([P[t*J*3], floor, P[t*J*3+2]], [P[(t+1)*J*3], floor, P[(t+1)*J*3+2]]);
   const o = frame*J*3, pts = [];
   for (let j = 0; j < J; j++) pts.push(project(P[o+3*j], P[o+3*j+1], P[o+3*j+2]));
   g.lineCap = "round"; g.lineWidth = 5;
@@ -88,6 +100,9 @@ function draw() {
     g.lineTo(pts[j][0], pts[j][1]); g.stroke(); }
   g.fillStyle = "#222"; for (const q of pts) { g.beginPath(); g.arc(q[0], q[1], 2.5, 0, 6.283); g.fill(); }
   scrub.value = frame; clock.textContent = (frame / fps).toFixed(2) + " s";
+  view.frame = frame;
+  const xs = pts.map(q => q[0]), ys = pts.map(q => q[1]);
+  view.bbox = [Math.min(...xs), Math.min(...ys), Math.max(...xs), Math.max(...ys)];
 }
 function now() { return audio ? audio.currentTime : f0 / fps + (performance.now() - t0) / 1000; }
 function tick() {
@@ -116,10 +131,40 @@ cv.onpointermove = e => { if (!drag) return; az = drag[2] - (e.clientX - drag[0]
   el = Math.max(-0.2, Math.min(1.4, drag[3] + (e.clientY - drag[1]) * 0.01)); draw(); };
 cv.onpointerup = () => { drag = null; };
 cv.onwheel = e => { e.preventDefault(); zoom = Math.max(0.3, Math.min(4, zoom * Math.exp(e.deltaY * 0.001))); draw(); };
+// For tests and embedding pages: the shown frame, the figure's projected box (canvas pixels) and the controls.
+globalThis.dancePlayer = Object.assign(view, {play, pause, seek, playing: () => playing});
 draw();
 })();
 </script></body></html>
 """
+
+
+def follow_track(root_xz: np.ndarray, fps: float, seconds: float = 0.35) -> np.ndarray:
+    """The view centre ``(T, 2)``: ``root_xz`` through a critically damped follow (two exponential
+    stages of time constant ``seconds``) run forwards then backwards, so it lags neither way; the
+    ends are extended by reflection (as the walk would go on), so the start and end do not lag."""
+    x = np.asarray(root_xz, np.float64)
+    if len(x) < 2:
+        return x.copy()
+    a = 1.0 - np.exp(-1.0 / (max(float(fps), 1e-6) * seconds))
+    stage = np.array([1.0, a - 1.0])
+    pad = min(len(x) - 1, int(np.ceil(8 * seconds * fps)))
+    return filtfilt([a * a], np.convolve(stage, stage), x, axis=0, padtype="odd", padlen=pad)
+
+
+def framing(positions: np.ndarray, fps: float) -> dict:
+    """What the player's camera needs: the followed centre, the floor height, the figure's stature
+    and size (its typical extent, not the room's) and how far the root strays from the centre."""
+    pos = np.asarray(positions, np.float64).reshape(len(positions), -1, 3)
+    if pos.size == 0:
+        return {"follow": [], "floor": 0.0, "stature": 1.0, "body": 1.0, "wander": 0.0}
+    follow = follow_track(pos[:, 0, [0, 2]], fps)
+    floor = float(pos[..., 1].min())
+    stature = float(np.percentile(pos[..., 1].max(axis=1), 90) - floor)
+    extent = float(np.percentile(np.ptp(pos, axis=1).max(axis=1), 90))
+    wander = float(np.percentile(np.linalg.norm(pos[:, 0, [0, 2]] - follow, axis=-1), 95))
+    return {"follow": np.round(follow.reshape(-1), 3).tolist(), "floor": floor,
+            "stature": max(stature, 1e-6), "body": max(stature, extent, 1e-6), "wander": wander}
 
 
 def player_html(positions: np.ndarray, parents: list[int], names: list[str], fps: float,
@@ -129,6 +174,7 @@ def player_html(positions: np.ndarray, parents: list[int], names: list[str], fps
         "title": title, "fps": float(fps), "frames": int(len(positions)), "names": list(names),
         "parents": [int(p) for p in parents], "colors": bone_colors(list(names), list(parents)),
         "positions": np.round(np.asarray(positions, np.float64).reshape(-1), 3).tolist(),
+        **framing(positions, fps),
     }
     audio = ""
     if music is not None:
