@@ -8,9 +8,9 @@ DANCE := $(VENV)/bin/dance
 STAMP := $(VENV)/.installed
 PYPROJECTS := $(wildcard packages/*/pyproject.toml)
 
-.PHONY: install demo test lint clean
+.PHONY: install browser demo test lint clean
 
-install: $(STAMP)
+install: $(STAMP) browser
 
 $(STAMP): requirements-dev.txt $(PYPROJECTS)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -22,12 +22,19 @@ $(STAMP): requirements-dev.txt $(PYPROJECTS)
 	$(PY) -m pip check
 	touch $(STAMP)
 
+# Chromium for the HTML preview's browser tests (skipped without it): Debian's package, as root
+browser:
+	@if command -v chromium >/dev/null 2>&1; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+		export DEBIAN_FRONTEND=noninteractive; apt-get update -qq && apt-get install -y -qq chromium >/dev/null; \
+	else echo "note: no chromium and not root (or no apt-get): the HTML preview's browser tests will be skipped"; fi
+
 demo: $(STAMP)
 	$(DANCE) plugins
 	$(DANCE) synth --out out/demo-song --songs 1 --seconds 30 --seed 7
 	$(DANCE) compose default --music out/demo-song/synth-0000.wav --out out
 
-test: $(STAMP)
+test: $(STAMP) browser
 	$(PY) -m pytest
 
 lint: $(STAMP)
