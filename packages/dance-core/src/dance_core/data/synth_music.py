@@ -177,7 +177,7 @@ class _Band:
 
 
 def _arrange(sections, groove: Groove, rng: np.random.Generator) -> list[dict]:
-    """Per section: drums played, which instrument keeps the pulse without drums, keys, lead, loudness."""
+    """Per section: drums played, which instrument keeps the pulse without drums, bass, keys, lead, loudness."""
     out = []
     for name, first, end in sections:
         loud, p_sparse, p_lead = SECTIONS[name]
@@ -189,7 +189,8 @@ def _arrange(sections, groove: Groove, rng: np.random.Generator) -> list[dict]:
             drums.update(groove.extra)
         out.append({"drums": {} if sparse else drums, "pulse": str(rng.choice(["bass", "keys"])) if sparse else None,
                     "keys": rng.random() < 0.6, "lead": rng.random() < p_lead, "loud": loud,
-                    "fill": end - first >= 4 and rng.random() < 0.4})
+                    "fill": end - first >= 4 and rng.random() < 0.4,
+                    "bass": sparse or name not in ("intro", "bridge")})  # light sections: drums and chords
     return out
 
 
@@ -265,7 +266,7 @@ def synthesize(seconds: float, bpm: float, rate: int, rng: np.random.Generator, 
             for drum, steps in part["drums"].items():
                 for s in steps:
                     if not (fill and s >= STEPS * (bpb - 1)):
-                        band.hit("drums", b0 + s / STEPS, kit[drum], (2.5 if drum in _ACCENTED and s % STEPS == 0
+                        band.hit("drums", b0 + s / STEPS, kit[drum], (3.5 if drum in _ACCENTED and s % STEPS == 0
                                                                       else 1.0) * loud)
             if fill:  # toms over the section's last beat
                 for i, tom in enumerate(("tom2", "tom1", "tom1", "tom0")):
@@ -280,7 +281,7 @@ def synthesize(seconds: float, bpm: float, rate: int, rng: np.random.Generator, 
                     play("keys", "stab", b0 + b, chord, (1.3 if b == 0 else 1.0) * loud, 0.9)
             else:  # the bass follows the kick
                 hits = [(s / STEPS, root + (12 if i == 2 and len(kick) > 3 else 0)) for i, s in enumerate(kick)]
-            for i, (pos, m) in enumerate(hits):
+            for i, (pos, m) in enumerate(hits if part["bass"] else []):
                 nxt = hits[i + 1][0] if i + 1 < len(hits) else float(bpb)
                 play("bass", "bass", b0 + pos, m, loud, min(2.0, nxt - pos))
             play("pad", "pad", b0, chord, loud, float(bpb))
