@@ -129,6 +129,8 @@ def synth(args: Namespace) -> int:
     from dance_core.components.wav import write_wav
     from dance_core.errors import DanceError
 
+    if args.music and args.out_dir is None:
+        raise DanceError("synth: --music needs --out DIR (the folder to write the dances into)")
     if args.out_dir is not None:
         from dance_core.data.synthetic_dance import synth_command
 

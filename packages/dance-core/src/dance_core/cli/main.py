@@ -63,6 +63,11 @@ def build_parser() -> Parser:
     p.add_argument("--out", dest="out_dir", metavar="DIR",
                    help="write a dataset instead: songs with a beat-locked SMPL dancer (WAV, BVH, beats, labels)")
     p.add_argument("--songs", type=int, default=10, help="dataset songs (default 10)")
+    p.add_argument("--music", nargs="+", metavar="SONG",
+                   help="with --out: choreograph the dancer to these songs (files or folders) instead")
+    p.add_argument("--dances", type=int, default=1, help="with --music: dances per song (default 1)")
+    p.add_argument("--tracker", choices=["librosa", "madmom", "auto"], default="librosa",
+                   help="with --music: beat tracker (default librosa; madmom's model files are non-commercial)")
     p.add_argument("--fps", type=float, default=60.0, help="dataset motion frame rate (default 60)")
     p.add_argument("--jobs", type=int, default=1, help="dataset worker processes (default 1)")
     p.add_argument("--bpm", type=float, default=120.0, help="click-track tempo (default 120)")

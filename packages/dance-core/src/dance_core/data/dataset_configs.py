@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import Field, PositiveFloat, PositiveInt
 
 from dance_core.config import ComponentConfig
@@ -17,6 +19,10 @@ class SyntheticDanceConfig(ComponentConfig):
     sample_rate: PositiveInt = 22050
     motion_fps: PositiveFloat | None = Field(None, description="frame rate of the dancer; default the recipe's")
     seed: int = 0
+    dance_to_tracker: Literal["librosa", "madmom", "auto"] | None = Field(
+        None, description="dance to the beats this tracker hears (the registered 'beats' extractor) instead of "
+        "the true beats: the tempo octave a model reading that tracker's features will hear in real songs"
+    )
 
 
 class FolderDatasetConfig(ComponentConfig):

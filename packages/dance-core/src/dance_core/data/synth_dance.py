@@ -1,7 +1,8 @@
 """A beat-locked dancer on the SMPL-24 skeleton: moves chosen per bar, with timed text labels.
 
-Every move is a pose function of the beat phase ``phi`` (beats since the bar's downbeat): joint
-rotations as exponential maps, periodic root offsets and root rates (travel, turning) that are
+Every move is a pose function of musical time (a :class:`~dance_core.data.beat_grid.BeatGrid`:
+beats since the first downbeat, on even or uneven beats, in bars of 2-7 beats): joint rotations as
+exponential maps, periodic root offsets and root rates (travel, turning, per beat) that are
 integrated over time. A groove shared by all moves dips the hips on every beat, so the hip's
 height minima (its zero vertical velocity at the bottom) sit on the music's beats. Moves change at
 bar lines with half a beat of blending; which move comes when depends on the section and a seed,
@@ -14,12 +15,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dance_core.data.beat_grid import BeatGrid
 from dance_core.media import TextSpan, frame_count
 from dance_core.motion.motion import Motion
 from dance_core.motion.rotations import expmap_to_quat, quat_mul, quat_rotate, yaw_quat
 from dance_core.motion.skeletons import SMPL_REST, smpl24
 
-BEATS_PER_BAR = 4
 MOVES = {
     "bounce": "a person bounces to the beat",
     "step-touch": "a person steps from side to side",
@@ -64,31 +65,33 @@ class Style:
                    float(rng.choice([-1.0, 1.0])), float(rng.uniform(0.15, 0.3)))
 
 
-def _pose(move: str, phi: np.ndarray, st: Style) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _pose(move: str, beat: np.ndarray, phi: np.ndarray, bar_beats: int, st: Style
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rotations ``(N, 24, 3)``, root offsets ``(N, 3)`` (lateral, up, forward) and rates
-    ``(N, 3)`` (lateral and forward metres per beat, yaw radians per beat) of one move."""
-    n = len(phi)
+    ``(N, 3)`` (lateral and forward metres per beat, yaw radians per beat) of one move, at musical
+    time ``beat`` (beats since the first downbeat) and ``phi`` (beats since the bar's downbeat)."""
+    n = len(beat)
     rot = np.zeros((n, 24, 3))
     off = np.zeros((n, 3))
     rate = np.zeros((n, 3))
     a, s = st.amplitude, st.lead
-    g = (1 + np.cos(2 * np.pi * phi)) / 2  # 1 on every beat, 0 half-way between
+    g = (1 + np.cos(2 * np.pi * beat)) / 2  # 1 on every beat, 0 half-way between
     # arms hang down (rotation about z), elbows slightly bent: the shared base pose
     rot[:, L_SHOULDER, 2], rot[:, R_SHOULDER, 2] = -1.2 - st.arms, 1.2 + st.arms
     rot[:, L_ELBOW, 1], rot[:, R_ELBOW, 1] = -0.3, 0.3
-    swing = np.sin(np.pi * phi)  # +-1 over two beats
+    swing = np.sin(np.pi * beat)  # +-1 over two beats, continuous across bars of any length
     if move == "bounce":
         rot[:, L_SHOULDER, 0] = -0.25 * a * swing
         rot[:, R_SHOULDER, 0] = 0.25 * a * swing
         rot[:, NECK, 0] = 0.1 * a * g
     elif move == "step-touch":
-        off[:, 0] = 0.18 * a * s * np.sin(np.pi * phi / 2)
-        rot[:, L_HIP, 2] = -0.12 * a * np.clip(np.sin(np.pi * phi / 2), 0, None)
-        rot[:, R_HIP, 2] = 0.12 * a * np.clip(-np.sin(np.pi * phi / 2), 0, None)
+        off[:, 0] = 0.18 * a * s * np.sin(np.pi * beat / 2)
+        rot[:, L_HIP, 2] = -0.12 * a * np.clip(np.sin(np.pi * beat / 2), 0, None)
+        rot[:, R_HIP, 2] = 0.12 * a * np.clip(-np.sin(np.pi * beat / 2), 0, None)
         rot[:, L_ELBOW, 1] -= 0.6 * a * (1 - g)
         rot[:, R_ELBOW, 1] += 0.6 * a * (1 - g)
     elif move == "sway":
-        roll = 0.12 * a * s * np.sin(np.pi * phi)
+        roll = 0.12 * a * s * np.sin(np.pi * beat)
         rot[:, PELVIS, 2] = roll
         rot[:, SPINE1, 2] = -0.6 * roll
         rot[:, SPINE3, 2] = -0.4 * roll
@@ -97,23 +100,23 @@ def _pose(move: str, phi: np.ndarray, st: Style) -> tuple[np.ndarray, np.ndarray
     elif move == "arm-wave":
         for k, (sh, el, wr, sign) in enumerate(((L_SHOULDER, L_ELBOW, L_WRIST, 1), (R_SHOULDER, R_ELBOW, R_WRIST, -1))):
             lag = np.pi * k * (s > 0)
-            rot[:, sh, 2] = sign * (1.3 + 0.35 * a * np.sin(np.pi * phi + lag))
-            rot[:, el, 2] = sign * 0.5 * a * np.sin(np.pi * phi + lag - 0.8)
-            rot[:, wr, 2] = sign * 0.4 * a * np.sin(np.pi * phi + lag - 1.6)
+            rot[:, sh, 2] = sign * (1.3 + 0.35 * a * np.sin(np.pi * beat + lag))
+            rot[:, el, 2] = sign * 0.5 * a * np.sin(np.pi * beat + lag - 0.8)
+            rot[:, wr, 2] = sign * 0.4 * a * np.sin(np.pi * beat + lag - 1.6)
     elif move == "clap":
         rot[:, L_SHOULDER] = np.stack([-1.0 * a + 0 * g, -0.5 - 0.5 * g, -1.0 + 0 * g], -1)
         rot[:, R_SHOULDER] = np.stack([-1.0 * a + 0 * g, 0.5 + 0.5 * g, 1.0 + 0 * g], -1)
         rot[:, L_ELBOW, 1], rot[:, R_ELBOW, 1] = -0.5 - 0.6 * g, 0.5 + 0.6 * g
     elif move == "spin":
-        rate[:, 2] = s * np.pi * np.sin(np.pi * phi / BEATS_PER_BAR) ** 2  # integrates to 2 pi per bar
+        rate[:, 2] = s * np.pi * 4 / bar_beats * np.sin(np.pi * phi / bar_beats) ** 2  # 2 pi per bar
         rot[:, L_SHOULDER, 2], rot[:, R_SHOULDER, 2] = -0.5 * a, 0.5 * a
     elif move == "jump":
-        off[:, 1] = 0.12 * a * np.sin(np.pi * phi) ** 2
-        rot[:, L_SHOULDER, 2] = -1.2 + 0.9 * a * np.sin(np.pi * phi) ** 2
-        rot[:, R_SHOULDER, 2] = 1.2 - 0.9 * a * np.sin(np.pi * phi) ** 2
+        off[:, 1] = 0.12 * a * np.sin(np.pi * beat) ** 2
+        rot[:, L_SHOULDER, 2] = -1.2 + 0.9 * a * np.sin(np.pi * beat) ** 2
+        rot[:, R_SHOULDER, 2] = 1.2 - 0.9 * a * np.sin(np.pi * beat) ** 2
     elif move == "kick":
-        left = np.clip(np.sin(np.pi * phi), 0, None) ** 2
-        right = np.clip(-np.sin(np.pi * phi), 0, None) ** 2
+        left = np.clip(np.sin(np.pi * beat), 0, None) ** 2
+        right = np.clip(-np.sin(np.pi * beat), 0, None) ** 2
         rot[:, L_HIP, 0], rot[:, R_HIP, 0] = -0.9 * a * left, -0.9 * a * right
         rot[:, L_SHOULDER, 0], rot[:, R_SHOULDER, 0] = 0.3 * a * left, 0.3 * a * right
     elif move == "walk":
@@ -147,17 +150,18 @@ def choose_moves(sections: list[tuple[str, int, int]], rng: np.random.Generator)
     return moves
 
 
-def dance(beats_offset: float, period: float, bar_moves: list[int], seconds: float, fps: float,
+def dance(grid: BeatGrid, bar_moves: list[int], seconds: float, fps: float,
           style: Style) -> tuple[Motion, tuple[TextSpan, ...]]:
-    """The dance for a song whose first downbeat is at ``beats_offset`` with beats every ``period`` s."""
+    """The dance to the beats of ``grid``: ``bar_moves[k]`` is the move of bar ``k`` (bars from
+    the first downbeat; the pickup before it dances the first bar's move)."""
     n = frame_count(seconds, fps)
-    t = np.arange(n) / fps
-    beat = (t - beats_offset) / period
-    bar = np.clip(np.floor(beat / BEATS_PER_BAR).astype(int), 0, len(bar_moves) - 1)
-    phi = beat - BEATS_PER_BAR * np.floor(beat / BEATS_PER_BAR)
+    bpb = grid.beats_per_bar
+    beat = grid.beat_at(np.arange(n) / fps)
+    bar = np.clip(np.floor(beat / bpb).astype(int), 0, len(bar_moves) - 1)
+    phi = beat - bpb * np.floor(beat / bpb)
     moves = np.asarray(bar_moves)[bar]
     nxt = np.asarray(bar_moves)[np.minimum(bar + 1, len(bar_moves) - 1)]
-    blend = np.clip((phi - (BEATS_PER_BAR - 0.5)) / 0.5, 0, 1) * (beat >= 0)  # no change before bar 0
+    blend = np.clip((phi - (bpb - 0.5)) / 0.5, 0, 1) * (beat >= 0)  # no change before bar 0
     blend = blend * blend * (3 - 2 * blend)  # smoothstep into the next bar's move
     weights = np.zeros((n, len(NAMES)))
     np.add.at(weights, (np.arange(n), moves), 1 - blend)
@@ -166,15 +170,15 @@ def dance(beats_offset: float, period: float, bar_moves: list[int], seconds: flo
     off = np.zeros((n, 3))
     rate = np.zeros((n, 3))
     for m in np.flatnonzero(weights.sum(0) > 0):
-        r, o, v = _pose(NAMES[m], phi, style)
+        r, o, v = _pose(NAMES[m], beat, phi, bpb, style)
         w = weights[:, m]
         rot += w[:, None, None] * r
         off += w[:, None] * o
         rate += w[:, None] * v
-    dt_beats = 1.0 / (fps * period)
-    yaw = np.cumsum(rate[:, 2]) * dt_beats
+    d_beat = np.diff(beat, prepend=2 * beat[0] - beat[1] if n > 1 else beat[0])  # beats per frame
+    yaw = np.cumsum(rate[:, 2] * d_beat)
     h = yaw_quat(yaw)
-    step = quat_rotate(h, np.stack([rate[:, 0], np.zeros(n), rate[:, 1]], -1)) * dt_beats
+    step = quat_rotate(h, np.stack([rate[:, 0], np.zeros(n), rate[:, 1]], -1)) * d_beat[:, None]
     ground = np.cumsum(step, axis=0)
     root = ground + quat_rotate(h, off * np.array([1.0, 0.0, 1.0])) + np.array([0.0, STAND, 0.0])
     root[:, 1] += off[:, 1]
@@ -185,9 +189,9 @@ def dance(beats_offset: float, period: float, bar_moves: list[int], seconds: flo
     start_bar = 0
     for b in range(1, len(bar_moves) + 1):
         if b == len(bar_moves) or bar_moves[b] != bar_moves[start_bar]:
-            t0 = max(0.0, beats_offset + start_bar * BEATS_PER_BAR * period)
-            t1 = min(seconds, beats_offset + b * BEATS_PER_BAR * period)
+            t0 = 0.0 if start_bar == 0 else max(0.0, float(grid.time_of(start_bar * bpb)))
+            t1 = seconds if b == len(bar_moves) else min(seconds, float(grid.time_of(b * bpb)))
             if t1 > t0:
-                texts.append(TextSpan(MOVES[NAMES[bar_moves[start_bar]]], round(float(t0), 4), round(float(t1), 4)))
+                texts.append(TextSpan(MOVES[NAMES[bar_moves[start_bar]]], round(t0, 4), round(t1, 4)))
             start_bar = b
     return motion, tuple(texts)

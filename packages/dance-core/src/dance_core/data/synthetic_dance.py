@@ -1,16 +1,19 @@
-"""The ``synthetic-dance`` dataset and ``dance synth``: synthesized songs with a beat-locked SMPL dancer.
+"""The ``synthetic-dance`` dataset and ``dance synth``: songs with a beat-locked SMPL dancer.
 
 Deterministic from the seed: song ``i`` draws its music from ``(seed, i)`` and dance ``k`` of it its
-moves and style from ``(seed, i, k)``, so the same music comes with several dances.
+moves and style from ``(seed, i, k)``, so the same music comes with several dances. ``dance synth
+--music`` choreographs the same dancer to real songs instead (:mod:`dance_core.data.choreograph`).
 """
 
 from __future__ import annotations
 
+import zlib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from dance_core.data.beat_grid import BeatGrid
 from dance_core.data.sources import ClipSource
 from dance_core.data.synth_dance import Style, choose_moves, dance
 from dance_core.data.synth_music import synthesize
@@ -19,21 +22,62 @@ from dance_core.protocols import MotionData
 
 
 def make_clip(index: int, *, seed: int, seconds: float, bpm: tuple[float, float], rate: int, fps: float,
-              dances_per_song: int = 1) -> ClipSource:
-    """Clip ``index``: song ``index // dances_per_song`` with dance ``index % dances_per_song``."""
+              dances_per_song: int = 1, tracker: str | None = None) -> ClipSource:
+    """Clip ``index``: song ``index // dances_per_song`` with dance ``index % dances_per_song``.
+
+    The dancer follows the song's true beats, or with ``tracker`` the beats that tracker hears (what a
+    model reading that tracker's beat features will hear in real songs: the same tempo octave).
+    """
     song_i, dance_i = divmod(index, dances_per_song)
     music_rng = np.random.default_rng([seed, song_i, 0])
     song = synthesize(seconds, float(music_rng.uniform(*bpm)), rate, music_rng)
+    audio = Audio(song.audio, rate)
+    if tracker is None:
+        grid = BeatGrid(song.beats, song.beats_per_bar, 0)
+    else:
+        from dance_core.data.choreograph import track_grid
+        from dance_core.registry import get_registry
+
+        grid = track_grid(audio, get_registry(), tracker)
+    bar_beats = grid.beats_per_bar
+    sections = [(name, int(round(float(grid.beat_at(a)) / bar_beats)), int(round(float(grid.beat_at(b)) / bar_beats)))
+                for name, a, b in song.sections]
+    sections = [(n, max(a, 0), b) for n, a, b in sections if b > max(a, 0)] or [("verse", 0, grid.bars(seconds))]
     dance_rng = np.random.default_rng([seed, song_i, 1, dance_i])
-    moves = choose_moves(song.section_bars, dance_rng)
-    motion, texts = dance(float(song.beats[0]), 60.0 / song.bpm, moves, seconds, fps, Style.draw(dance_rng))
+    moves = choose_moves(sections, dance_rng)
+    moves += moves[-1:] * max(0, grid.bars(seconds) - len(moves))
+    motion, texts = dance(grid, moves, seconds, fps, Style.draw(dance_rng))
     name = f"synth-{song_i:04d}" + (f"-{dance_i}" if dances_per_song > 1 else "")
+    meta = {"bpm": grid.bpm, "beats": grid.times.tolist(), "downbeats": grid.downbeats().tolist(),
+            "beats_per_bar": bar_beats, "first_downbeat": grid.first_downbeat, "sections": song.sections,
+            "style": song.style}
+    return ClipSource(name, _motion_data(motion, meta), Audio(song.audio, rate), texts=texts, meta=meta)
+
+
+def _motion_data(motion, meta: dict) -> MotionData:
+    """Joint positions of a skeletal motion, with the motion itself attached."""
     positions = motion.positions().reshape(motion.n_frames, -1).astype(np.float32)
     channels = [f"{j}.{a}" for j in motion.skeleton.names for a in "xyz"]
-    meta = {"bpm": song.bpm, "beats": song.beats.tolist(), "downbeats": song.downbeats.tolist(),
-            "sections": song.sections, "style": song.style}
-    return ClipSource(name, MotionData(positions, fps, channels, meta, motion), Audio(song.audio, rate),
-                      texts=texts, meta=meta)
+    return MotionData(positions, motion.fps, channels, meta, motion)
+
+
+def music_clips(path: str, registry, *, dances: int, seed: int, fps: float, tracker: str) -> list[ClipSource]:
+    """``dances`` dances of the synthetic dancer to one real song (beats from the registered tracker)."""
+    from dance_core.data.choreograph import choreograph, track_grid
+    from dance_core.data.features import load_audio
+
+    audio = load_audio(path, registry)
+    grid = track_grid(audio, registry, tracker)
+    out = []
+    song_key = zlib.crc32(Path(path).name.encode())  # another song, other dances, whatever the order
+    for k in range(dances):
+        motion, texts, sections = choreograph(audio, grid, fps, np.random.default_rng([seed, song_key, k]))
+        meta = {"bpm": grid.bpm, "beats": grid.times.tolist(), "downbeats": grid.downbeats().tolist(),
+                "beats_per_bar": grid.beats_per_bar, "first_downbeat": grid.first_downbeat, "sections": sections,
+                "style": f"tracked ({tracker})"}
+        name = Path(path).stem + (f"-{k}" if dances > 1 else "")
+        out.append(ClipSource(name, _motion_data(motion, meta), audio, audio_path=str(path), texts=texts, meta=meta))
+    return out
 
 
 class SyntheticDance:
@@ -47,7 +91,7 @@ class SyntheticDance:
         """One clip."""
         c = self.config
         return make_clip(index, seed=c.seed, seconds=c.seconds, bpm=tuple(c.bpm), rate=c.sample_rate,
-                         fps=self.fps, dances_per_song=c.dances_per_song)
+                         fps=self.fps, dances_per_song=c.dances_per_song, tracker=c.dance_to_tracker)
 
     def clips(self) -> list[ClipSource]:
         """Every song times every dance."""
@@ -68,15 +112,36 @@ def write_clip(out: Path, clip: ClipSource) -> list[Path]:
 
     out.mkdir(parents=True, exist_ok=True)
     base = out / clip.name
-    write_wav(base.with_suffix(".wav"), clip.audio.samples, clip.audio.rate)
+    if clip.audio_path:  # a real song: linked (or copied) beside its dance under the dance's name
+        song = base.with_suffix(Path(clip.audio_path).suffix.lower())
+        _link_or_copy(Path(clip.audio_path), song)
+    else:
+        song = base.with_suffix(".wav")
+        write_wav(song, clip.audio.samples, clip.audio.rate)
     BvhFormat(precision=5).write_motion(clip.motion.skeleton_motion, base.with_suffix(".bvh"))
-    beats = clip.meta["beats"]
-    write_text(base.with_suffix(".beats"), "".join(f"{b:.4f}\t{i % 4 + 1}\n" for i, b in enumerate(beats)))
+    beats, per_bar = clip.meta["beats"], clip.meta["beats_per_bar"]
+    first = clip.meta.get("first_downbeat", 0)
+    write_text(base.with_suffix(".beats"),
+               "".join(f"{b:.4f}\t{(i - first) % per_bar + 1}\n" for i, b in enumerate(beats)))
     write_text(base.with_suffix(".texts"), "".join(f"{t.start:.4f}\t{t.end:.4f}\t{t.text}\n" for t in clip.texts))
     head = f"# bpm {clip.meta['bpm']:.4f} style {clip.meta['style']}\n"
     rows = "".join(f"{a:.4f}\t{b:.4f}\t{n}\n" for n, a, b in clip.meta["sections"])
     write_text(base.with_suffix(".sections"), head + rows)
-    return [base.with_suffix(s) for s in (".wav", ".bvh", ".beats", ".texts", ".sections")]
+    return [song] + [base.with_suffix(s) for s in (".bvh", ".beats", ".texts", ".sections")]
+
+
+def _link_or_copy(src: Path, dst: Path) -> None:
+    """A hard link to ``src`` at ``dst`` (a copy across file systems); an existing ``dst`` is replaced."""
+    import os
+    import shutil
+
+    tmp = dst.with_name(f".{dst.name}.tmp")
+    tmp.unlink(missing_ok=True)
+    try:
+        os.link(src, tmp)
+    except OSError:
+        shutil.copyfile(src, tmp)
+    os.replace(tmp, dst)
 
 
 def _write_one(args: tuple) -> str:
@@ -101,10 +166,49 @@ def write_dataset(out: str | Path, songs: int, seed: int = 0, seconds: float = 6
         return list(pool.map(_write_one, work, chunksize=4))
 
 
+def music_files(paths: list[str], registry) -> list[Path]:
+    """The audio files named, and those inside named folders (sorted), checked before any work."""
+    from dance_core.errors import DataError
+
+    readable = {s for e in registry.entries("audio-reader") for s in e.info.get("suffixes", ())}
+    out: list[Path] = []
+    for p in map(Path, paths):
+        if p.is_dir():
+            found = sorted(f for f in p.iterdir() if f.is_file() and f.suffix.lower() in readable)
+            if not found:
+                raise DataError(f"{p}: --music: no audio file ({', '.join(sorted(readable))}) in this folder")
+            out += found
+        elif p.is_file():
+            out.append(p)
+        else:
+            raise DataError(f"{p}: --music: no such file or folder")
+    return out
+
+
+def write_music_dances(out: str | Path, music: list[str], dances: int, seed: int, fps: float,
+                       tracker: str) -> list[str]:
+    """Choreograph ``dances`` dances to every song in ``music`` and write them like a synthetic dataset."""
+    from dance_core.registry import get_registry
+
+    registry = get_registry()
+    names = []
+    for path in music_files(music, registry):
+        for clip in music_clips(str(path), registry, dances=dances, seed=seed, fps=fps, tracker=tracker):
+            write_clip(Path(out), clip)
+            names.append(clip.name)
+    return names
+
+
 def synth_command(args: Any) -> int:
-    """``dance synth --out DIR --songs N --seed S``: write a dataset and print where it went."""
+    """``dance synth --out DIR --songs N --seed S`` (or ``--music SONGS``): write a dataset, say where."""
     from dance_core.errors import DanceError
 
+    if args.music:
+        if not (1 <= args.dances <= 1000) or args.fps <= 0:
+            raise DanceError("synth: need 1 <= --dances <= 1000 and --fps > 0")
+        names = write_music_dances(args.out_dir, args.music, args.dances, args.seed, args.fps, args.tracker)
+        print(f"{args.out_dir}: {len(names)} dances ({names[0]} ... {names[-1]}): song .bvh .beats .texts .sections")
+        return 0
     seconds = 60.0 if args.seconds is None else args.seconds
     if not (1 <= args.songs <= 100_000) or not (2.0 <= seconds <= 3600) or args.fps <= 0 or args.rate < 8000:
         raise DanceError("synth: need 1 <= --songs, 2 <= --seconds <= 3600, --fps > 0, --rate >= 8000")
