@@ -183,3 +183,22 @@ def test_compose_grounds_skeletal_dances(floating_checkpoint, tmp_path, on):
         assert lowest.min() > -2e-3 and np.median(lowest) < 5e-3  # on the floor, not below it
     else:
         assert np.median(lowest) > 0.2  # the model floats like its training data
+
+
+def test_restless_feet_without_contacts_still_come_down_to_the_floor():
+    """Jittery generated motion: legs kick fast all the time (no contact), the body drifts upwards."""
+    m = dancer(seconds=8.0)
+    n = m.n_frames
+    t = np.arange(n) / FPS
+    rot = np.zeros((n, 24, 3))
+    rot[:, 1, 0] = -0.5 * np.clip(np.sin(9 * t), 0, None)  # left hip kicks forward, fast
+    rot[:, 2, 0] = -0.5 * np.clip(-np.sin(9 * t), 0, None)  # right hip, alternating
+    root = m.root.copy()
+    root[:, 1] += 0.25 * t / 8.0  # rises 25 cm over the song
+    kicking = Motion(m.skeleton, FPS, root, expmap_to_quat(rot))
+    out, report = ground(kicking)
+    lows = soles(out)
+    window = int(FPS)  # every second, some foot comes down to the floor
+    per_second = lows[: n // window * window].reshape(-1, window).min(1)
+    np.testing.assert_array_less(np.abs(per_second), 0.02)
+    assert lows.min() > -1e-3

@@ -52,6 +52,7 @@ class GroundingOptions:
     release_speed: float = 0.8  # ... and over which it ends
     min_contact: float = 0.1  # shorter contacts, and shorter gaps within one, are flickers
     floor_window: float = 2.0  # the floor the motion stands on: its lowest sole over this window
+    max_airborne: float = 1.0  # frames farther than half this from a contact rest on the lowest sole near them
     smoothing: float = 0.1  # standard deviation of the Gaussian smoothing the height correction
     blend: float = 0.15  # the foot pinning fades in and out over this at a span's edges
     reference_leg: float = 0.8  # hip to ankle, to guess the units of skeletons without known units
@@ -153,11 +154,12 @@ def vertical_correction(heights: np.ndarray, contacts: np.ndarray, fps: float, o
     """``(T,)`` smooth root height change: contact feet onto the floor, no foot below it."""
     t = np.arange(len(heights))
     known = contacts.any(1)
-    if known.any():
-        lowest_contact = np.where(contacts, heights, np.inf).min(1)
-        c = np.interp(t, t[known], -lowest_contact[known])
-    else:
-        c = np.zeros(len(heights))
+    span = max(1, int(round(options.max_airborne * fps))) | 1
+    lowest_near = minimum_filter1d(heights.min(1), span, mode="nearest")
+    far = maximum_filter1d(known.astype(np.int8), span, mode="nearest") == 0  # no contact within span / 2
+    anchors = known | far
+    values = np.where(known, np.where(contacts, heights, np.inf).min(1), lowest_near)
+    c = np.interp(t, t[anchors], -values[anchors]) if anchors.any() else np.zeros(len(heights))
     sigma = options.smoothing * fps
     if sigma > 0:
         c = gaussian_filter1d(c, sigma, mode="nearest", truncate=3.0)
