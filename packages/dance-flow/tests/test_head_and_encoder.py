@@ -203,3 +203,49 @@ def test_residual_head_models_frames_relative_to_the_last_one():
         cold, _ = head.sample(h, 0.0)
     assert loss.item() == pytest.approx(direct.item(), rel=1e-5)
     assert torch.allclose(frames, cold + last, atol=1e-6)
+
+
+def test_correlated_sampling_keeps_each_steps_noise_and_shares_it_between_steps():
+    torch.manual_seed(0)
+    cfg = FlowHeadConfig(frames=N, steps=2, coupling=CouplingConfig(dim=8, layers=1, heads=2), sample_correlation=0.9)
+    head = FlowHead(cfg, D, H).eval()
+    head.flow.invert = lambda z, latent: z  # look at the base noise itself
+    h = torch.zeros(4096, N, H)
+    gen = torch.Generator().manual_seed(1)
+    state = head.init_state(4096, gen)
+    with torch.no_grad():
+        zs = []
+        for _ in range(3):
+            z, state = head.step(h, None, state, 0.5, gen)
+            zs.append(z)
+    for z in zs:
+        assert z.std().item() == pytest.approx(0.5, rel=0.03)  # the temperature's spread at every step
+    corr = torch.corrcoef(torch.stack([zs[1].flatten(), zs[2].flatten()]))[0, 1]
+    assert corr.item() == pytest.approx(0.9, abs=0.02)
+    independent = FlowHead(FlowHeadConfig(frames=N, steps=2, coupling=CouplingConfig(dim=8, layers=1, heads=2)), D, H)
+    assert independent.init_state(4, gen) is None
+
+
+def test_a_generation_only_option_does_not_stop_a_checkpoint_from_loading(tmp_path):
+    from dance_core.checkpoint import check_matches, load_checkpoint, save_checkpoint
+    from dance_core.data.stats import NormStats
+    from dance_core.errors import CheckpointError
+    from dance_core.model import build_model
+    from dance_core.recipe import load_recipe
+
+    small = ["model.encoder.dim=16", "model.encoder.motion={layers: 1, heads: 2}",
+             "model.encoder.music={layers: 1, heads: 2}", "model.encoder.crossmodal={layers: 1, heads: 2}",
+             "model.head.coupling={dim: 8, layers: 1, heads: 2}", "model.head.steps=2"]
+    recipe = load_recipe("transflower-small", small)
+    model = build_model(recipe, 6, {"music": 81, "beat": 6})
+    from dance_core.data.sources import Clip
+
+    rng = torch.Generator().manual_seed(0)
+    streams = {"music": torch.randn(9, 81, generator=rng).numpy(), "beat": torch.randn(9, 6, generator=rng).numpy()}
+    stats = NormStats.fit([Clip("a", torch.randn(9, 6, generator=rng).numpy(), streams)])
+    path = tmp_path / "model.safetensors"
+    save_checkpoint(path, model, stats, recipe, {"dim": 6, "fps": 20}, 1)
+    ckpt = load_checkpoint(path)
+    check_matches(ckpt, load_recipe("transflower-small", [*small, "model.head.sample_correlation=0.95"]))
+    with pytest.raises(CheckpointError, match=r"model\.head\.steps"):
+        check_matches(ckpt, load_recipe("transflower-small", [*small[:-1], "model.head.steps=3"]))

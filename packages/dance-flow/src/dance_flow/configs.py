@@ -103,7 +103,8 @@ class FlowHeadConfig(ComponentConfig):
     ``noise`` jitters training targets so that constant or nearly constant motion channels (joints
     that never move) have a bounded density instead of pulling the likelihood to infinity.
     ``residual`` models ``x_{t+i} - x_{t-1}`` (a translation: the likelihood of the frames is the same
-    number), so the flow need not copy the last pose through the encoder.
+    number), so the flow need not copy the last pose through the encoder. ``sample_correlation`` is a
+    generation-time option (a checkpoint trained with another value still loads).
     """
 
     frames: PositiveInt = 3
@@ -116,6 +117,12 @@ class FlowHeadConfig(ComponentConfig):
     df: PositiveFloat = 50.0
     noise: float = Field(0.01, ge=0.0, description="std of Gaussian noise added to training targets (normalized units)")
     residual: bool = Field(False, description="model the frames minus the last frame before them")
+    sample_correlation: float = Field(
+        0.0, ge=0.0, lt=1.0, json_schema_extra={"generation": True},
+        description="generation only: correlation of the base noise between consecutive steps (AR(1); 0: "
+        "independent, as in the paper). Each step's noise keeps its distribution, so the dance keeps its "
+        "variety, but consecutive frames share most of it instead of jittering apart",
+    )
 
     @model_validator(mode="after")
     def _keep(self):

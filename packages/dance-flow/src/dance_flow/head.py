@@ -25,6 +25,7 @@ class FlowHead(nn.Module):
         self.latent_tokens = config.frames
         self.motion_dim = motion_dim
         self.noise = config.noise
+        self.correlation = config.sample_correlation
         self.flow = FlowNet(motion_dim, latent_dim, config.frames, config)
         self.base = base_distribution(config)
 
@@ -59,16 +60,21 @@ class FlowHead(nn.Module):
         bits = nll / (self.frames * self.motion_dim * math.log(2.0))
         return {"loss": bits, "nats_per_frame": (nll / self.frames).detach()}
 
-    def init_state(self, batch: int, generator: torch.Generator | None = None) -> None:
-        """No state: the flow is conditioned on the latent only."""
-        return None
+    def init_state(self, batch: int, generator: torch.Generator | None = None) -> dict | None:
+        """The previous step's base noise when sampling is correlated; else no state."""
+        return {"z": None} if self.correlation > 0 else None
 
     def step(self, latent, history, state, temperature: float, generator=None):
-        """Sample the next ``frames`` frames (the fast path: no log-likelihood)."""
+        """Sample the next ``frames`` frames (the fast path: no log-likelihood); with
+        ``sample_correlation`` rho the base noise is ``rho * z_prev + sqrt(1 - rho^2) * new``."""
         with torch.autocast(latent.device.type, enabled=False):
             latent = latent.float()
             shape = (latent.shape[0], self.frames, self.motion_dim)
             z = self.base.sample(shape, temperature, generator, latent.device, latent.dtype)
+            if state is not None:
+                if state["z"] is not None:
+                    z = self.correlation * state["z"] + math.sqrt(1.0 - self.correlation**2) * z
+                state = {"z": z}
             frames = self.flow.invert(z, latent)
             return (frames + history[:, -1:].float() if self.residual else frames), state
 

@@ -145,6 +145,20 @@ class ComposeSpec(Strict):
     )
 
 
+def without_generation_options(data: dict[str, Any], paths: list[tuple[str, ...]]) -> dict[str, Any]:
+    """A copy of a recipe dict without the options at ``paths``."""
+    import copy
+
+    out = copy.deepcopy(data)
+    for path in paths:
+        node = out
+        for key in path[:-1]:
+            node = node.get(key) if isinstance(node, dict) else None
+        if isinstance(node, dict):
+            node.pop(path[-1], None)
+    return out
+
+
 class Recipe(Strict):
     """A whole recipe: features, model, data, training and composition."""
 
@@ -191,6 +205,21 @@ class Recipe(Strict):
         return str(p if p.is_absolute() else Path(self._dir) / p)
 
     def model_dict(self) -> dict[str, Any]:
-        """The parts a checkpoint must agree with: fps, features, model (and motion, when set)."""
+        """The parts a checkpoint must agree with: fps, features, model (and motion, when set),
+        without the model components' generation-only options (see :meth:`generation_options`)."""
         data = self.model_dump(mode="json")
-        return {key: data[key] for key in ("fps", "features", "model", "motion") if data[key] is not None}
+        out = {key: data[key] for key in ("fps", "features", "model", "motion") if data[key] is not None}
+        return without_generation_options(out, self.generation_options())
+
+    def generation_options(self) -> list[tuple[str, ...]]:
+        """Paths of model options that only steer generation (fields whose schema says
+        ``generation: true``): a checkpoint trained with other values still fits."""
+        specs = {("model", "encoder"): self.model.encoder, ("model", "head"): self.model.head}
+        specs.update({("model", "conditioners", n): s for n, s in self.model.conditioners.items()})
+        paths = []
+        for where, spec in specs.items():
+            config = type(spec._config) if spec._entry is not None else None
+            for name, field in (config.model_fields.items() if config else ()):
+                if isinstance(field.json_schema_extra, dict) and field.json_schema_extra.get("generation"):
+                    paths.append((*where, name))
+        return paths
