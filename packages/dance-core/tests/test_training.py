@@ -51,6 +51,7 @@ def test_checkpoint_round_trip_and_metadata(tiny_recipe, tmp_path):
 
 def test_checkpoint_refuses_a_recipe_it_does_not_match(tiny_recipe, tmp_path):
     result = train(tiny_recipe(), out=str(tmp_path), quiet=True)
+    check_matches(load_checkpoint(result.checkpoint), tiny_recipe("model.head.hidden=256"))  # the default, spelt out
     other = tiny_recipe("model.encoder.dim=64")
     with pytest.raises(CheckpointError, match=r"model\.encoder\.dim differ"):
         check_matches(load_checkpoint(result.checkpoint), other)

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dance_core.checkpoint import load_checkpoint
+from dance_core.checkpoint import check_matches, load_checkpoint
 from dance_core.compose import compose, read_motion
 from dance_core.recipe import load_recipe
 from dance_core.registry import get_registry
@@ -22,7 +22,8 @@ def test_the_bundled_weights_are_small_and_match_the_default_recipe():
     assert recipe.name == "transflower-small"
     assert Path(recipe.resolve_path(recipe.compose.checkpoint)).resolve() == BUNDLED.resolve()
     ckpt = load_checkpoint(BUNDLED)
-    assert ckpt.recipe["model"] == recipe.model_dict()["model"]
+    assert recipe.model_dict(ckpt.recipe)["model"] == recipe.model_dict()["model"]
+    check_matches(ckpt, recipe)
     assert ckpt.step == recipe.training.steps
 
 

@@ -16,7 +16,7 @@ from safetensors.torch import load_file, save_file
 from dance_core.atomic import atomic_path
 from dance_core.data.stats import NormStats
 from dance_core.errors import CheckpointError
-from dance_core.recipe.schema import Recipe, without_generation_options
+from dance_core.recipe.schema import Recipe
 
 FORMAT = "dance-checkpoint/1"
 STATE_FORMAT = "dance-train-state/1"
@@ -115,10 +115,7 @@ def _diff(a: Any, b: Any, loc: str = "") -> list[str]:
 
 def check_matches(ckpt: Checkpoint, recipe: Recipe) -> None:
     """Refuse a recipe whose fps, features or model differ from the checkpoint's."""
-    saved = {key: ckpt.recipe.get(key) for key in ("fps", "features", "model", "motion")}
-    saved = {key: value for key, value in saved.items() if value is not None}
-    saved = without_generation_options(saved, recipe.generation_options())
-    differ = _diff(saved, recipe.model_dict())
+    differ = _diff(recipe.model_dict(ckpt.recipe), recipe.model_dict())
     if differ:
         shown = ", ".join(differ[:4]) + (f" and {len(differ) - 4} more" if len(differ) > 4 else "")
         raise CheckpointError(f"{ckpt.path}: checkpoint does not match recipe {recipe._origin}: {shown} differ")

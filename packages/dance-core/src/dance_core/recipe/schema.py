@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, PositiveInt, PrivateAttr, field_validator
@@ -145,18 +146,8 @@ class ComposeSpec(Strict):
     )
 
 
-def without_generation_options(data: dict[str, Any], paths: list[tuple[str, ...]]) -> dict[str, Any]:
-    """A copy of a recipe dict without the options at ``paths``."""
-    import copy
-
-    out = copy.deepcopy(data)
-    for path in paths:
-        node = out
-        for key in path[:-1]:
-            node = node.get(key) if isinstance(node, dict) else None
-        if isinstance(node, dict):
-            node.pop(path[-1], None)
-    return out
+def _has(parent: dict | list, key: Any) -> bool:
+    return key in parent if isinstance(parent, dict) else isinstance(key, int) and 0 <= key < len(parent)
 
 
 class Recipe(Strict):
@@ -204,22 +195,35 @@ class Recipe(Strict):
         p = Path(path).expanduser()
         return str(p if p.is_absolute() else Path(self._dir) / p)
 
-    def model_dict(self) -> dict[str, Any]:
-        """The parts a checkpoint must agree with: fps, features, model (and motion, when set),
-        without the model components' generation-only options (see :meth:`generation_options`)."""
-        data = self.model_dump(mode="json")
-        out = {key: data[key] for key in ("fps", "features", "model", "motion") if data[key] is not None}
-        return without_generation_options(out, self.generation_options())
-
-    def generation_options(self) -> list[tuple[str, ...]]:
-        """Paths of model options that only steer generation (fields whose schema says
-        ``generation: true``): a checkpoint trained with other values still fits."""
-        specs = {("model", "encoder"): self.model.encoder, ("model", "head"): self.model.head}
-        specs.update({("model", "conditioners", n): s for n, s in self.model.conditioners.items()})
-        paths = []
-        for where, spec in specs.items():
-            config = type(spec._config) if spec._entry is not None else None
-            for name, field in (config.model_fields.items() if config else ()):
-                if isinstance(field.json_schema_extra, dict) and field.json_schema_extra.get("generation"):
-                    paths.append((*where, name))
-        return paths
+    def model_dict(self, data: dict[str, Any] | None = None) -> dict[str, Any]:
+        """The parts a checkpoint must agree with: fps, features, model (and motion, when set), each
+        component with its options resolved (defaults filled in, so an option given at its default
+        equals one left out) and without its generation-only options (fields whose schema says
+        ``generation: true``: a checkpoint trained with other values still fits). ``data``: another
+        recipe's dump (a checkpoint's) to put in the same form, read with this recipe's plugins."""
+        data = self.model_dump(mode="json") if data is None else data
+        out = {key: copy.deepcopy(data[key]) for key in ("fps", "features", "model", "motion") if data.get(key) is not None}
+        for kind, where, spec in self.components():
+            if where[0] not in out or spec._entry is None:
+                continue
+            parent = out
+            for key in where[:-1]:
+                parent = parent.get(key) if isinstance(parent, dict) else None
+                parent = parent if isinstance(parent, (dict, list)) else None
+                if parent is None:
+                    break
+            last = where[-1]
+            if parent is None or not _has(parent, last) or not isinstance(parent[last], dict):
+                continue
+            given = parent[last]
+            if given.get("plugin") != spec.plugin:
+                continue  # another plugin: the difference shows as it is
+            config_type = type(spec._config)
+            try:
+                resolved = config_type(**{k: v for k, v in given.items() if k != "plugin"}).model_dump(mode="json")
+            except ValueError:
+                continue  # options this plugin no longer takes: left as given, so they differ
+            skip = {n for n, f in config_type.model_fields.items()
+                    if isinstance(f.json_schema_extra, dict) and f.json_schema_extra.get("generation")}
+            parent[last] = {"plugin": spec.plugin, **{k: v for k, v in resolved.items() if k not in skip}}
+        return out
