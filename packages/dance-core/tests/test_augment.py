@@ -64,3 +64,18 @@ def test_unknown_dropout_input_is_a_recipe_error(tmp_path):
         Trainer(recipe, tmp_path, quiet=True)
     with pytest.raises(RecipeError, match="probability"):
         load_recipe("core-synthetic", ["training.augment.input_dropout.music=1.5"])
+
+
+def test_generation_picks_one_thread_for_small_work_and_honours_an_explicit_count():
+    from dance_core.runtime import SMALL_WORK, generation_threads
+
+    before = torch.get_num_threads()
+    try:
+        small = torch.nn.Linear(100, 100)
+        cpu = torch.device("cpu")
+        assert generation_threads(small, 4, cpu, None) == 1 and torch.get_num_threads() == 1
+        assert generation_threads(small, 4, cpu, 2) == 2 and torch.get_num_threads() == 2
+        big = torch.nn.Linear(1000, SMALL_WORK // 1000 + 1)
+        assert generation_threads(big, 1, cpu, None) >= 1
+    finally:
+        torch.set_num_threads(before)
