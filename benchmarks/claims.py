@@ -29,10 +29,9 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+from readme_section import write_section
 
 ROOT = Path(__file__).resolve().parents[1]
-README = ROOT / "benchmarks" / "README.md"
-START, END = "<!-- claims:start -->", "<!-- claims:end -->"
 FPS = 20.0
 TRAIN_SONGS = 12
 METRICS = ["fid-k", "fid-g", "div-k", "div-g", "bas-bailando", "freezing", "fmd", "beat-offset", "pfc"]
@@ -232,17 +231,6 @@ def claims(rows: list[Row], long_seconds: float) -> list[str]:
     return out
 
 
-def write_readme(text: str) -> None:
-    """Replace the claims section of benchmarks/README.md (between the markers) atomically."""
-    from dance_core.atomic import write_text
-
-    current = README.read_text(encoding="utf-8")
-    if START not in current or END not in current:
-        raise SystemExit(f"{README}: no {START} ... {END} markers")
-    head, rest = current.split(START, 1)
-    write_text(README, head + START + "\n" + text.rstrip("\n") + "\n" + END + rest.split(END, 1)[1])
-
-
 def main() -> None:
     """Run every row, print the tables and the claims, optionally write them into the README."""
     import torch
@@ -312,7 +300,7 @@ def main() -> None:
     text = "\n".join(lines)
     print(text)
     if args.readme:
-        write_readme(text)
+        write_section("claims", text)
 
 
 if __name__ == "__main__":

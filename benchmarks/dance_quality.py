@@ -44,10 +44,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from readme_section import write_section
 
 ROOT = Path(__file__).resolve().parents[1]
-README = ROOT / "benchmarks" / "README.md"
-START, END = "<!-- quality:start -->", "<!-- quality:end -->"
 DEFAULT_MUSIC = ROOT.parent / "shared" / "fixtures" / "audio"
 TIMES = "times.json"  # compose wall and CPU times kept next to the dances (--keep)
 REFERENCE = {"seed": 0, "seconds": 60.0, "bpm": (80.0, 140.0), "rate": 22050}
@@ -318,17 +317,6 @@ def summary(rows: list[Row], ref: dict[str, float]) -> str:
     return "Targets met (rows): " + ", ".join(parts) + "."
 
 
-def write_readme(text: str) -> None:
-    """Replace the quality section of benchmarks/README.md (between the markers) atomically."""
-    from dance_core.atomic import write_text
-
-    current = README.read_text(encoding="utf-8")
-    if START not in current or END not in current:
-        raise SystemExit(f"{README}: no {START} ... {END} markers")
-    head, rest = current.split(START, 1)
-    write_text(README, head + START + "\n" + text.rstrip("\n") + "\n" + END + rest.split(END, 1)[1])
-
-
 def machine(threads: int) -> str:
     """The machine in words."""
     load = f", load average {os.getloadavg()[0]:.1f}" if hasattr(os, "getloadavg") else ""
@@ -437,7 +425,7 @@ def main(argv: list[str] | None = None) -> None:
     text = "\n".join(lines)
     print(text)
     if args.readme:
-        write_readme(text)
+        write_section("quality", text)
 
 
 if __name__ == "__main__":
