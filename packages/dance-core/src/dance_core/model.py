@@ -129,7 +129,8 @@ class ComposedModel(nn.Module):
         ``training.augment``) corrupts the inputs, never the targets, with ``ctx.generator``."""
         w, head = self.window, self.head
         if augment is not None:
-            streams = {n: frame_dropout(x, augment.input_dropout.get(n, 0.0), ctx.generator) for n, x in streams.items()}
+            drop = augment.input_dropout
+            streams = {n: frame_dropout(x, drop.get(n, 0.0), ctx.generator) for n, x in streams.items()}
         cond = self.condition(streams)
         if w.song_level:
             h = head.history_frames

@@ -139,7 +139,8 @@ class Trainer:
     def _context(self, step: int, stage: StageSpec) -> TrainContext:
         epoch = step // self.steps_per_epoch
         values = {n: float(f(step, epoch, self.total)) for n, f in self.schedules.items()}
-        generator = torch.Generator().manual_seed((self.recipe.seed * 1_000_003 + step) % 2**63)  # same step, same draws
+        # the same step draws the same augmentation noise, however the run was resumed
+        generator = torch.Generator().manual_seed((self.recipe.seed * 1_000_003 + step) % 2**63)
         return TrainContext(step=step, epoch=epoch, stage=stage.name, values=values, generator=generator)
 
     def validate(self, step: int, stage: StageSpec) -> float | None:

@@ -202,8 +202,9 @@ class Recipe(Strict):
         ``generation: true``: a checkpoint trained with other values still fits). ``data``: another
         recipe's dump (a checkpoint's) to put in the same form, read with this recipe's plugins."""
         data = self.model_dump(mode="json") if data is None else data
-        out = {key: copy.deepcopy(data[key]) for key in ("fps", "features", "model", "motion") if data.get(key) is not None}
-        for kind, where, spec in self.components():
+        keys = ("fps", "features", "model", "motion")
+        out = {key: copy.deepcopy(data[key]) for key in keys if data.get(key) is not None}
+        for _, where, spec in self.components():
             if where[0] not in out or spec._entry is None:
                 continue
             parent = out
