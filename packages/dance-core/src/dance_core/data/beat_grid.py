@@ -40,11 +40,6 @@ class BeatGrid:
         first = int(down[0]) if len(down) else 0
         return cls(times, min(max(bar, 2), 7), first)
 
-    @classmethod
-    def regular(cls, offset: float, period: float, seconds: float, beats_per_bar: int = 4) -> BeatGrid:
-        """Evenly spaced beats from ``offset`` every ``period`` seconds, the first one a downbeat."""
-        return cls(np.arange(offset, max(seconds, offset + 2 * period), period), beats_per_bar, 0)
-
     def __post_init__(self):
         if len(self.times) < 2 or np.any(np.diff(self.times) <= 0):
             raise DataError("beat times must be at least 2 and strictly increasing")

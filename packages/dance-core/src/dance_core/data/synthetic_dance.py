@@ -40,18 +40,23 @@ def make_clip(index: int, *, seed: int, seconds: float, bpm: tuple[float, float]
 
         grid = track_grid(audio, get_registry(), tracker)
     bar_beats = grid.beats_per_bar
-    sections = [(name, int(round(float(grid.beat_at(a)) / bar_beats)), int(round(float(grid.beat_at(b)) / bar_beats)))
-                for name, a, b in song.sections]
+    bar_of = lambda t: int(round(float(grid.beat_at(t)) / bar_beats))  # noqa: E731
+    sections = [(name, bar_of(a), bar_of(b)) for name, a, b in song.sections]
     sections = [(n, max(a, 0), b) for n, a, b in sections if b > max(a, 0)] or [("verse", 0, grid.bars(seconds))]
     dance_rng = np.random.default_rng([seed, song_i, 1, dance_i])
     moves = choose_moves(sections, dance_rng)
     moves += moves[-1:] * max(0, grid.bars(seconds) - len(moves))
     motion, texts = dance(grid, moves, seconds, fps, Style.draw(dance_rng))
     name = f"synth-{song_i:04d}" + (f"-{dance_i}" if dances_per_song > 1 else "")
-    meta = {"bpm": grid.bpm, "beats": grid.times.tolist(), "downbeats": grid.downbeats().tolist(),
-            "beats_per_bar": bar_beats, "first_downbeat": grid.first_downbeat, "sections": song.sections,
-            "style": song.style}
-    return ClipSource(name, _motion_data(motion, meta), Audio(song.audio, rate), texts=texts, meta=meta)
+    meta = _grid_meta(grid, song.sections, song.style)
+    return ClipSource(name, _motion_data(motion, meta), audio, texts=texts, meta=meta)
+
+
+def _grid_meta(grid: BeatGrid, sections: list, style: str) -> dict:
+    """What ``write_clip`` writes beside a dance: tempo, beats, meter, sections and style."""
+    return {"bpm": grid.bpm, "beats": grid.times.tolist(), "downbeats": grid.downbeats().tolist(),
+            "beats_per_bar": grid.beats_per_bar, "first_downbeat": grid.first_downbeat, "sections": sections,
+            "style": style}
 
 
 def _motion_data(motion, meta: dict) -> MotionData:
@@ -72,9 +77,7 @@ def music_clips(path: str, registry, *, dances: int, seed: int, fps: float, trac
     song_key = zlib.crc32(Path(path).name.encode())  # another song, other dances, whatever the order
     for k in range(dances):
         motion, texts, sections = choreograph(audio, grid, fps, np.random.default_rng([seed, song_key, k]))
-        meta = {"bpm": grid.bpm, "beats": grid.times.tolist(), "downbeats": grid.downbeats().tolist(),
-                "beats_per_bar": grid.beats_per_bar, "first_downbeat": grid.first_downbeat, "sections": sections,
-                "style": f"tracked ({tracker})"}
+        meta = _grid_meta(grid, sections, f"tracked ({tracker})")
         name = Path(path).stem + (f"-{k}" if dances > 1 else "")
         out.append(ClipSource(name, _motion_data(motion, meta), audio, audio_path=str(path), texts=texts, meta=meta))
     return out
