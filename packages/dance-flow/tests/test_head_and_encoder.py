@@ -247,5 +247,9 @@ def test_a_generation_only_option_does_not_stop_a_checkpoint_from_loading(tmp_pa
     save_checkpoint(path, model, stats, recipe, {"dim": 6, "fps": 20}, 1)
     ckpt = load_checkpoint(path)
     check_matches(ckpt, load_recipe("transflower-small", [*small, "model.head.sample_correlation=0.95"]))
+    # the beat tracker is an input option of the same kind: the beat columns mean the same whoever tracked them
+    check_matches(ckpt, load_recipe("transflower-small", [*small, "features.beat=[{plugin: beats, tracker: madmom}]"]))
+    with pytest.raises(CheckpointError, match=r"features\.beat"):
+        check_matches(ckpt, load_recipe("transflower-small", [*small, "features.beat=[{plugin: beats, max_bpm: 200}]"]))
     with pytest.raises(CheckpointError, match=r"model\.head\.steps"):
         check_matches(ckpt, load_recipe("transflower-small", [*small[:-1], "model.head.steps=3"]))

@@ -58,7 +58,11 @@ class BeatsConfig(ComponentConfig):
     danced tempo (AIST++ music spans 80-135 BPM), so the default stops there (madmom's is 215).
     """
 
-    tracker: Literal["auto", "madmom", "librosa"] = "auto"
+    tracker: Literal["auto", "madmom", "librosa"] = Field(
+        "auto", json_schema_extra={"generation": True},
+        description="beat tracker; the columns mean the same whichever tracked them, so a model trained on "
+        "one tracker's beats may compose with another's (madmom's weights are non-commercial: opt-in)",
+    )
     beats_per_bar: list[PositiveInt] = Field(default_factory=lambda: [3, 4])
     min_bpm: PositiveFloat = 55.0
     max_bpm: PositiveFloat = 160.0
