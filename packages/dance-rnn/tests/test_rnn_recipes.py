@@ -88,3 +88,12 @@ def test_cross_breed_local_attention_feeds_the_flow_head(tmp_path):
     assert sorted(p.name for p in paths) == ["a.npz", "b.npz"]
     with np.load(tmp_path / "out" / "b.npz") as f:
         assert f["values"].shape == (40, 18) and np.isfinite(f["values"]).all()
+
+
+def test_past_motion_augmentation_is_refused_by_a_song_level_encoder(tmp_path):
+    from dance_core.errors import RecipeError
+
+    recipe = load_recipe("dancerevolution-small", [*TINY, "data.dataset.songs=2", "features.music=[{plugin: energy}]",
+                                                   "training.augment.motion_noise=0.1"])
+    with pytest.raises(RecipeError, match="training.augment: motion_noise"):
+        Trainer(recipe, tmp_path, quiet=True)

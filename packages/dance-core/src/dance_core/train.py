@@ -113,6 +113,10 @@ class Trainer:
         self.motion_info = motion_info(recipe, sources, motion_dim)
         torch.manual_seed(recipe.seed)
         self.model = build_model(recipe, motion_dim, self.stack.dims()).to(self.device)
+        aug = self.t.augment
+        if self.model.window.song_level and (aug.motion_noise > 0 or aug.input_dropout.get("motion", 0.0) > 0):
+            raise RecipeError(f"{recipe._origin}: training.augment: motion_noise and input_dropout.motion corrupt "
+                              f"the past motion a windowed encoder sees; {recipe.model.encoder.plugin} sees none")
         length = self.model.segment_frames(recipe.data.segment_frames)
         self.sampler = SegmentSampler(train, length, self.t.batch_size, recipe.seed)
         self.val_sampler = (
