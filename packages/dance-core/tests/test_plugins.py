@@ -4,7 +4,7 @@ import pytest
 
 from dance_core import ComponentConfig, hookimpl
 from dance_core.errors import PluginError
-from dance_core.plugins import make_plugin_manager
+from dance_core.plugins import DEFAULT_PLUGINS, make_plugin_manager
 from dance_core.registry import Registry, unknown_message
 from dance_core.testing import registered_plugin
 
@@ -12,25 +12,26 @@ from dance_core.testing import registered_plugin
 def test_installed_entry_points_are_discovered():
     pm = make_plugin_manager()
     names = {pm.get_name(p) for p in pm.get_plugins()}
-    assert {"dance-core", "audio", "flow", "rnn", "tokens"} <= names
-    dists = {dist.metadata["name"] for _, dist in pm.list_plugin_distinfo()}
+    assert {"dance-core.components", "dance-core.formats", "audio", "flow", "rnn", "tokens"} <= names
+    dists = {dist for dist, _ in pm.dists.values()}
     assert {"dance-audio", "dance-flow", "dance-rnn", "dance-tokens"} <= dists
 
 
 def test_load_plugins_env_limits_what_loads(monkeypatch):
     monkeypatch.setenv("DANCE_LOAD_PLUGINS", "flow,dance-rnn")
     names = {make_plugin_manager().get_name(p) for p in make_plugin_manager().get_plugins()}
-    assert names == {"dance-core", "flow", "rnn"}
+    core = set(DEFAULT_PLUGINS)
+    assert names == core | {"flow", "rnn"}
     monkeypatch.setenv("DANCE_LOAD_PLUGINS", "")
     pm = make_plugin_manager()
-    assert {pm.get_name(p) for p in pm.get_plugins()} == {"dance-core"}
+    assert {pm.get_name(p) for p in pm.get_plugins()} == core
     assert len(list(entry_points(group="dance"))) >= 4
 
 
 def test_core_registers_its_defaults_through_the_hooks():
     registry = Registry(make_plugin_manager(load_entry_points=False))
     head = registry.get("head", "regression")
-    assert (head.plugin, head.distribution) == ("dance-core", "dance-core")
+    assert (head.plugin, head.distribution) == ("dance-core.components", "dance-core")
     assert "energy" in registry.names("feature")
     assert ".wav" in registry.get("audio-reader", "wav").info["suffixes"]
 

@@ -10,6 +10,7 @@ import torch
 
 from dance_core.checkpoint import Checkpoint, check_matches, load_checkpoint, load_weights
 from dance_core.data.features import FeatureStack, load_audio
+from dance_core.data.files import read_motion_file
 from dance_core.data.prepare import decode_motion, encode_seed, stored_representation
 from dance_core.errors import DanceError, DataError, RecipeError
 from dance_core.media import frame_count
@@ -30,19 +31,9 @@ class Song:
     path: str = ""
 
 
-def motion_format(name: str, registry: Registry):
-    """A registered motion format by name (``npz``) or by suffix (``.npz``)."""
-    for entry in registry.entries("motion-format"):
-        if name == entry.name or name.lower() in entry.info.get("suffixes", ()):
-            return entry, entry.build()
-    return registry.get("motion-format", name), None  # raises with close matches
-
-
 def read_motion(path: str | Path, registry: Registry) -> MotionData:
     """Read a motion file with the format registered for its suffix."""
-    path = Path(path)
-    entry, fmt = motion_format(path.suffix.lower() or path.name, registry)
-    return fmt.read(str(path))
+    return read_motion_file(path, registry)
 
 
 def seed_motion(spec: str | None, ckpt: Checkpoint, frames: int, registry: Registry) -> np.ndarray:
@@ -104,7 +95,7 @@ def compose(
     songs_in = music or [recipe.resolve_path(m) for m in c.music]
     if not songs_in:
         raise RecipeError(f"{recipe._origin}: compose.music: no song given (or pass --music)")
-    formats = [motion_format(f, registry) for f in c.formats]
+    formats = [(entry, entry.build()) for entry in (registry.find("motion-format", f) for f in c.formats)]
     device = pick_device(c.device, c.threads)
     model, ckpt, stack = load_model(recipe, checkpoint, device)
     songs = [load_song(p, stack, ckpt, c.seconds, registry) for p in songs_in]

@@ -9,6 +9,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from dance_core.contexts import ConditionerContext, EncoderContext, HeadContext
 from dance_core.errors import RecipeError
 from dance_core.protocols import TrainContext
 from dance_core.recipe.schema import Recipe
@@ -23,16 +24,13 @@ def build_model(recipe: Recipe, motion_dim: int, stream_dims: Mapping[str, int])
                 f"{recipe._origin}: model.conditioners.{name}: no feature stream {name!r} "
                 f"(streams: {', '.join(stream_dims) or 'none'})"
             )
-        conditioners[name] = _build(spec, f"model.conditioners.{name}", input=name, in_dim=stream_dims[name])
+        conditioners[name] = _build(spec, f"model.conditioners.{name}", ConditionerContext(name, stream_dims[name]))
     cond_dims = {n: conditioners[n].out_dim if n in conditioners else d for n, d in stream_dims.items()}
-    encoder = _build(recipe.model.encoder, "model.encoder", motion_dim=motion_dim, cond_dims=cond_dims)
+    encoder = _build(recipe.model.encoder, "model.encoder", EncoderContext(motion_dim, cond_dims))
     head = _build(
         recipe.model.head,
         "model.head",
-        motion_dim=motion_dim,
-        latent_dim=encoder.out_dim,
-        latent_tokens=encoder.latent_tokens,
-        window=encoder.window,
+        HeadContext(motion_dim, encoder.out_dim, encoder.latent_tokens, encoder.window),
     )
     want = getattr(head, "latent_tokens", None)
     # a song-level encoder gives one token per frame, so a head needing K tokens per step gets its `frames`
@@ -45,9 +43,9 @@ def build_model(recipe: Recipe, motion_dim: int, stream_dims: Mapping[str, int])
     return ComposedModel(conditioners, encoder, head)
 
 
-def _build(spec, where: str, **context: Any):
+def _build(spec, where: str, context: Any):
     try:
-        return spec.build(**context)
+        return spec.build(context)
     except (ValueError, TypeError) as exc:
         raise RecipeError(f"{where}: {spec.plugin}: {exc}") from exc
 

@@ -1,10 +1,20 @@
-"""The plugin manager: core's defaults, entry points of the group ``dance``, and a hook check."""
+"""The plugin manager: core's default plugins, entry points of the group ``dance``, hook checks.
+
+A third-party plugin that fails to import, implements a hook that does not exist, or fails while
+registering is skipped with a one-line warning (``dance plugins`` lists it as broken), so that one
+broken install does not stop every command; ``--strict`` (or ``DANCE_STRICT_PLUGINS=1``) makes it an
+error instead. ``DANCE_LOAD_PLUGINS=a,b`` loads only the named plugins (``''``: none).
+"""
 
 from __future__ import annotations
 
+import difflib
+import importlib
 import os
+import sys
+from dataclasses import dataclass
 from functools import lru_cache
-from importlib.metadata import entry_points
+from importlib.metadata import EntryPoint, entry_points
 
 import pluggy
 
@@ -14,6 +24,58 @@ from dance_core.errors import PluginError
 GROUP = "dance"
 CORE_PLUGIN = "dance-core"
 ENV_ALLOW = "DANCE_LOAD_PLUGINS"
+ENV_STRICT = "DANCE_STRICT_PLUGINS"
+
+#: core's own defaults, each a plugin module registered through the same hooks as any other
+DEFAULT_PLUGINS: dict[str, str] = {
+    "dance-core.components": "dance_core.defaults.components",
+    "dance-core.formats": "dance_core.defaults.formats",
+    "dance-core.previews": "dance_core.defaults.previews",
+    "dance-core.data": "dance_core.defaults.data",
+    "dance-core.evaluation": "dance_core.defaults.evaluation",
+}
+
+
+@dataclass(frozen=True)
+class BrokenPlugin:
+    """A plugin that was skipped: its name, distribution and why."""
+
+    name: str
+    distribution: str
+    reason: str
+
+
+class DancePluginManager(pluggy.PluginManager):
+    """A pluggy manager that also knows each plugin's distribution and the plugins it skipped."""
+
+    def __init__(self, strict: bool = False):
+        super().__init__(GROUP)
+        self.strict = strict
+        self.dists: dict[str, tuple[str, str]] = {}
+        self.broken: list[BrokenPlugin] = []
+
+    def skip(self, name: str, reason: str) -> None:
+        """Unregister a broken plugin and remember why (an error instead when strict)."""
+        dist = self.dists.get(name, (name, "?"))[0]
+        if self.strict:
+            raise PluginError(f"plugin {name!r} from {dist}: {reason}")
+        if self.has_plugin(name):
+            self.unregister(name=name)
+        self.broken.append(BrokenPlugin(name, dist, reason))
+        warn(
+            f"plugin {name!r} from {dist} is broken and was skipped: {reason} "
+            f"(--strict stops on it; {ENV_ALLOW}='' loads no plugin)"
+        )
+
+
+def warn(message: str) -> None:
+    """Print one warning line on stderr."""
+    print(f"dance: warning: {message}", file=sys.stderr)
+
+
+def strict_from_env() -> bool:
+    """True when ``DANCE_STRICT_PLUGINS`` asks broken plugins to be errors."""
+    return os.environ.get(ENV_STRICT, "").strip().lower() not in ("", "0", "false", "no")
 
 
 def _allowed_names() -> set[str] | None:
@@ -24,43 +86,77 @@ def _allowed_names() -> set[str] | None:
     return {part.strip() for part in raw.split(",") if part.strip()}
 
 
-def _load_entry_points(pm: pluggy.PluginManager) -> None:
-    """Load every allowed entry point of the group, naming the plugin when one fails."""
+def _dist_of(ep: EntryPoint) -> tuple[str, str]:
+    dist = ep.dist
+    return (dist.metadata["name"], dist.version) if dist is not None else (ep.name, "unpackaged")
+
+
+def _load_entry_points(pm: DancePluginManager) -> None:
+    """Import and register every allowed entry point of the group; skip (or fail on) broken ones."""
     allowed = _allowed_names()
-    if allowed is not None:
-        for ep in entry_points(group=GROUP):
-            dist = ep.dist.name if ep.dist is not None else ""
-            if ep.name not in allowed and dist not in allowed:
-                pm.set_blocked(ep.name)
-    try:
-        pm.load_setuptools_entrypoints(GROUP)
-    except Exception as exc:
-        for ep in entry_points(group=GROUP):
-            if pm.is_blocked(ep.name) or pm.has_plugin(ep.name):
-                continue
-            dist = ep.dist.name if ep.dist is not None else "?"
-            raise PluginError(
-                f"plugin {ep.name!r} from {dist} failed to load ({ep.value}): {type(exc).__name__}: {exc}"
-            ) from exc
-        raise PluginError(f"loading plugins failed: {type(exc).__name__}: {exc}") from exc
+    eps = sorted(entry_points(group=GROUP), key=lambda ep: ep.name)
+    if allowed:
+        known = {ep.name for ep in eps} | {_dist_of(ep)[0] for ep in eps}
+        for name in sorted(allowed - known):
+            message = (
+                f"{ENV_ALLOW} names {name!r}, which matches no installed plugin "
+                f"(installed: {', '.join(f'{ep.name} ({_dist_of(ep)[0]})' for ep in eps) or 'none'})"
+            )
+            if pm.strict:
+                raise PluginError(message)
+            warn(message)
+    for ep in eps:
+        dist = _dist_of(ep)
+        if allowed is not None and ep.name not in allowed and dist[0] not in allowed:
+            continue
+        if pm.has_plugin(ep.name):
+            continue
+        pm.dists[ep.name] = dist
+        try:
+            plugin = ep.load()
+        except Exception as exc:
+            pm.skip(ep.name, f"cannot import {ep.value}: {type(exc).__name__}: {exc}")
+            continue
+        pm.register(plugin, name=ep.name)
 
 
-def check_hooks(pm: pluggy.PluginManager) -> None:
-    """Fail with a one-line error when a plugin implements a hook that does not exist."""
-    try:
-        pm.check_pending()
-    except pluggy.PluginValidationError as exc:
-        name = pm.get_name(exc.plugin) if exc.plugin is not None else "?"
-        raise PluginError(f"plugin {name!r}: {exc}") from exc
+def unknown_hooks(pm: pluggy.PluginManager) -> dict[str, list[str]]:
+    """Plugin name -> hooks it implements that no hookspec declares."""
+    found: dict[str, list[str]] = {}
+    for name, caller in vars(pm.hook).items():
+        if name.startswith("_") or caller.has_spec():
+            continue
+        for impl in caller.get_hookimpls():
+            if not impl.optionalhook:
+                found.setdefault(impl.plugin_name, []).append(name)
+    return found
 
 
-def make_plugin_manager(load_entry_points: bool = True) -> pluggy.PluginManager:
-    """Build a manager with core's defaults registered and (optionally) installed plugins."""
-    from dance_core.components import plugin as core_plugin
+def hook_hint(name: str) -> str:
+    """`` (did you mean 'register_heads'?)`` for a misspelt hook name, else the list of hooks."""
+    specs = sorted(n for n in dir(hookspecs) if n.startswith("register_"))
+    close = difflib.get_close_matches(name, specs, n=1, cutoff=0.6)
+    return f"did you mean {close[0]!r}?" if close else f"hooks: {', '.join(specs)}"
 
-    pm = pluggy.PluginManager(GROUP)
+
+def check_hooks(pm: DancePluginManager) -> None:
+    """Skip (or, when strict, fail on) plugins implementing hooks that do not exist, naming the right one."""
+    for plugin, hooks in unknown_hooks(pm).items():
+        what = "; ".join(f"{h} is not a dance hook ({hook_hint(h)})" for h in hooks)
+        if plugin in DEFAULT_PLUGINS or pm.strict:
+            raise PluginError(f"plugin {plugin!r}: {what}")
+        pm.skip(plugin, what)
+
+
+def make_plugin_manager(load_entry_points: bool = True, strict: bool | None = None) -> DancePluginManager:
+    """Build a manager with core's default plugins registered and (optionally) the installed ones."""
+    from dance_core import __version__
+
+    pm = DancePluginManager(strict=strict_from_env() if strict is None else strict)
     pm.add_hookspecs(hookspecs)
-    pm.register(core_plugin, name=CORE_PLUGIN)
+    for name, module in DEFAULT_PLUGINS.items():
+        pm.register(importlib.import_module(module), name=name)
+        pm.dists[name] = (CORE_PLUGIN, __version__)
     if load_entry_points:
         _load_entry_points(pm)
     check_hooks(pm)
@@ -68,17 +164,16 @@ def make_plugin_manager(load_entry_points: bool = True) -> pluggy.PluginManager:
 
 
 @lru_cache(maxsize=1)
-def get_plugin_manager() -> pluggy.PluginManager:
+def get_plugin_manager() -> DancePluginManager:
     """The process-wide plugin manager, built on first use."""
     return make_plugin_manager()
 
 
 def plugin_distribution(pm: pluggy.PluginManager, plugin_name: str) -> tuple[str, str]:
     """The (distribution, version) that provided a registered plugin."""
-    if plugin_name == CORE_PLUGIN:
-        from dance_core import __version__
-
-        return CORE_PLUGIN, __version__
+    dists = getattr(pm, "dists", {})
+    if plugin_name in dists:
+        return dists[plugin_name]
     plugin = pm.get_plugin(plugin_name)
     for registered, dist in pm.list_plugin_distinfo():
         if registered is plugin:

@@ -164,6 +164,27 @@ class MotionFormat(Protocol):
 
 
 @runtime_checkable
+class MotionRepresentation(Protocol):
+    """Skeletal motion (a ``dance_core.motion.Motion``) to model features ``(T, D)`` and back."""
+
+    def channels(self, skeleton: Any) -> list[str]:
+        """Names of the ``D`` feature channels for a skeleton."""
+        ...
+
+    def dim(self, skeleton: Any) -> int:
+        """``D``, the feature width for a skeleton."""
+        ...
+
+    def encode(self, motion: Any) -> np.ndarray:
+        """Features ``(T, D)`` of a motion."""
+        ...
+
+    def decode(self, values: np.ndarray, skeleton: Any, fps: float) -> Any:
+        """The motion that features ``(T, D)`` describe, on ``skeleton`` at ``fps``."""
+        ...
+
+
+@runtime_checkable
 class Dataset(Protocol):
     """A source of paired music and motion clips."""
 

@@ -53,7 +53,10 @@ def plugins(args: Namespace) -> int:
 
     from dance_core.registry import KINDS, get_registry
 
+    from dance_core.plugins import get_plugin_manager
+
     registry = get_registry()
+    broken = get_plugin_manager().broken
     if args.json:
         data = {
             kind: [
@@ -68,15 +71,22 @@ def plugins(args: Namespace) -> int:
             ]
             for kind in KINDS
         }
+        data["broken"] = [{"plugin": b.name, "distribution": b.distribution, "reason": b.reason} for b in broken]
         print(json.dumps(data, indent=2))
+        return 0
+    rows = [(kind, e.name, e.plugin, e.distribution, e.version, e.description)
+            for kind in KINDS for e in registry.entries(kind)]
+    rows += [("BROKEN", "", b.name, b.distribution, "", b.reason) for b in broken]
+    if not sys.stdout.isatty():  # a pipe or a file: every column whole, tab-separated
+        for row in [("kind", "name", "plugin", "distribution", "version", "description"), *rows]:
+            print("\t".join(row))
         return 0
     table = Table(title="dance components")
     for column in ("kind", "name", "plugin", "distribution", "version"):
         table.add_column(column, no_wrap=True)
     table.add_column("description", overflow="fold")
-    for kind in KINDS:
-        for e in registry.entries(kind):
-            table.add_row(kind, e.name, e.plugin, e.distribution, e.version, e.description)
+    for row in rows:
+        table.add_row(*row)
     Console().print(table)
     return 0
 

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from dance_core.cli import commands
 from dance_core.errors import DanceError
+from dance_core.plugins import DEFAULT_PLUGINS, ENV_STRICT
 
 
 class Parser(argparse.ArgumentParser):
@@ -27,6 +29,20 @@ def _sets(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _plugin_commands(sub) -> None:
+    """Subcommands from every plugin's ``register_commands``; one that fails is skipped (strict: error)."""
+    from dance_core.plugins import get_plugin_manager
+
+    pm = get_plugin_manager()
+    for impl in pm.hook.register_commands.get_hookimpls():
+        try:
+            impl.function(subparsers=sub)
+        except Exception as exc:
+            if isinstance(exc, DanceError) or impl.plugin_name in DEFAULT_PLUGINS:
+                raise
+            pm.skip(impl.plugin_name, f"failed in register_commands: {type(exc).__name__}: {exc}")
+
+
 def build_parser() -> Parser:
     """The full argument parser (plugins may add subcommands through ``register_commands``)."""
     from importlib.metadata import version
@@ -35,6 +51,9 @@ def build_parser() -> Parser:
     parser.add_argument("--version", action="version", version=f"dance {version('dance-core')}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks for errors")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+    parser.add_argument(
+        "--strict", action="store_true", help=f"stop on a broken plugin instead of skipping it ({ENV_STRICT}=1)"
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
 
     p = sub.add_parser("compose", help="write dances for songs with a trained model")
@@ -80,9 +99,7 @@ def build_parser() -> Parser:
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(run=commands.plugins)
 
-    from dance_core.plugins import get_plugin_manager
-
-    get_plugin_manager().hook.register_commands(subparsers=sub)
+    _plugin_commands(sub)
 
     rp = sub.add_parser("recipe", help="validate, show, list recipes or print their schema")
     rsub = rp.add_subparsers(dest="recipe_command", metavar="ACTION", parser_class=Parser, required=True)
@@ -104,6 +121,12 @@ def build_parser() -> Parser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``dance`` script."""
+    if "--strict" in (sys.argv[1:] if argv is None else argv):
+        os.environ[ENV_STRICT] = "1"  # read when the plugin manager is built, before parsing
+        from dance_core import plugins, registry
+
+        plugins.get_plugin_manager.cache_clear()
+        registry.reset()
     try:
         parser = build_parser()
     except DanceError as exc:  # a broken plugin: still one line
@@ -121,6 +144,9 @@ def main(argv: list[str] | None = None) -> int:
         for line in str(exc).splitlines() or [type(exc).__name__]:
             print(f"dance: error: {line}", file=sys.stderr)
         return 1
+    except BrokenPipeError:  # output piped into head, less...: stop quietly
+        sys.stderr.close()
+        return 0
     except KeyboardInterrupt:
         print("dance: interrupted", file=sys.stderr)
         return 130

@@ -31,7 +31,7 @@ def track_grid(audio: Audio, registry: Registry, tracker: str = "librosa") -> Be
         entry = registry.get("feature", "beats")
     except PluginError as exc:
         raise PluginError(f"choreographing to music needs a beat tracker: {exc} (pip install dance-audio)") from exc
-    extractor = entry.build(entry.config(tracker=tracker))
+    extractor = entry.build(entry.config_for({"tracker": tracker}))
     n = audio.n_frames(TRACK_FPS)
     cols = np.asarray(extractor.extract(FeatureInputs(n_frames=n, audio=audio), TRACK_FPS))
     beats = np.flatnonzero(cols[:, 0] > 0.5)

@@ -17,13 +17,13 @@ MIN_SECONDS = 0.5
 def audio_reader_for(path: Path, registry: Registry):
     """The registered audio reader for a file suffix."""
     suffix = path.suffix.lower()
-    able = [e for e in registry.entries("audio-reader") if suffix in e.info.get("suffixes", ())]
-    if able:  # the highest ``priority=`` registered wins (core's readers have 0)
-        return max(able, key=lambda e: e.info.get("priority", 0)).build()
-    known = sorted({s for e in registry.entries("audio-reader") for s in e.info.get("suffixes", ())})
+    entry = registry.for_suffix("audio-reader", suffix)  # the highest ``priority=`` wins (core's: 0)
+    if entry is not None:
+        return entry.build()
+    known = sorted(registry.suffixes("audio-reader"))
+    more = "" if len(registry.entries("audio-reader")) > 1 else "; install dance-audio for more formats"
     raise DataError(
-        f"{path}: no audio reader for {suffix or 'files without a suffix'!r} "
-        f"(readable: {', '.join(known)}; install dance-audio for more formats)"
+        f"{path}: no audio reader for {suffix or 'files without a suffix'!r} (readable: {', '.join(known)}{more})"
     )
 
 

@@ -9,32 +9,42 @@ from dance_core.media import TextSpan
 from dance_core.protocols import MotionData
 from dance_core.registry import Registry
 
-PREVIEWS = {".gif", ".mp4", ".html"}
-
 
 def motion_suffixes(registry: Registry) -> dict[str, str]:
-    """Readable motion suffixes and the format registered for each (previews are write-only)."""
-    out = {}
-    for e in registry.entries("motion-format"):
-        for s in e.info.get("suffixes", ()):
-            if s not in PREVIEWS:
-                out.setdefault(s, e.name)
-    return out
+    """Readable motion suffixes and the format chosen for each (previews are write-only)."""
+    return registry.suffixes("motion-format")
 
 
 def audio_suffixes(registry: Registry) -> set[str]:
     """Suffixes some registered audio reader can read."""
-    return {s for e in registry.entries("audio-reader") for s in e.info.get("suffixes", ())}
+    return set(registry.suffixes("audio-reader"))
 
 
 def read_motion_file(path: str | Path, registry: Registry, fmt: str | None = None) -> MotionData:
-    """Read a motion file with the format registered for its suffix (or the named format)."""
+    """Read a motion file with the format chosen for its suffix (highest priority), or the named format."""
     path = Path(path)
-    name = fmt or motion_suffixes(registry).get(path.suffix.lower())
-    if name is None:
-        known = ", ".join(sorted(motion_suffixes(registry)))
+    entry = registry.get("motion-format", fmt) if fmt else registry.for_suffix("motion-format", path.suffix)
+    if entry is None:
+        known = ", ".join(motion_suffixes(registry))
         raise DataError(f"{path}: no motion format reads {path.suffix or 'files without a suffix'!r} ({known})")
-    return registry.get("motion-format", name).build().read(str(path))
+    return entry.build().read(str(path))
+
+
+def motion_files(folder: Path, registry: Registry, only: list[str] | None = None) -> list[Path]:
+    """Every file in ``folder`` whose suffix a registered motion format reads (or one of ``only``)."""
+    if not folder.is_dir():
+        raise DataError(f"{folder}: not a folder of motion files")
+    suffixes = set(motion_suffixes(registry))
+    if only:
+        wanted = {s.lower() if s.startswith(".") else f".{s.lower()}" for s in only}
+        unknown = sorted(wanted - suffixes)
+        if unknown:
+            raise DataError(f"no motion format reads {', '.join(unknown)} (readable: {', '.join(sorted(suffixes))})")
+        suffixes = wanted
+    files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in suffixes)
+    if not files:
+        raise DataError(f"{folder}: no motion files (readable: {', '.join(sorted(suffixes))})")
+    return files
 
 
 def read_texts(path: Path) -> tuple[TextSpan, ...]:

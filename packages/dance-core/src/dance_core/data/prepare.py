@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from dance_core.contexts import DatasetContext
 from dance_core.data.features import FeatureStack, load_audio
 from dance_core.data.sources import Clip, ClipSource
 from dance_core.errors import DataError, RecipeError
@@ -20,7 +21,7 @@ def dataset_sources(recipe: Recipe) -> list[ClipSource]:
     encoded with the recipe's ``motion:`` representation (mirrored copies added with ``data.mirror``)."""
     if recipe.data is None:
         raise RecipeError(f"{recipe._origin}: data: required for training")
-    dataset = recipe.data.dataset.build(fps=recipe.fps, seed=recipe.seed, root=recipe._dir)
+    dataset = recipe.data.dataset.build(DatasetContext(fps=recipe.fps, seed=recipe.seed, root=recipe._dir))
     sources = list(dataset.clips())
     if not sources:
         raise DataError(f"dataset {recipe.data.dataset.plugin!r} has no clips")
@@ -82,8 +83,7 @@ def stored_representation(info: dict[str, Any], registry: Registry) -> tuple[Any
 
     spec = info["representation"]
     options = {k: v for k, v in spec.items() if k != "plugin"}
-    entry = registry.get("motion-representation", spec["plugin"])
-    rep = entry.build(entry.config.model_validate(options) if entry.config else None)
+    rep = registry.create("motion-representation", spec["plugin"], options)
     return rep, Skeleton.from_dict(info["skeleton"])
 
 

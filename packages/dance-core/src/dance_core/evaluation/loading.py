@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from dance_core.data.files import audio_suffixes as readable_audio
+from dance_core.data.files import motion_files, read_motion_file
 from dance_core.errors import DataError
 from dance_core.evaluation import music as M
 from dance_core.evaluation.clips import resampled, z_up_to_y_up
@@ -18,32 +20,6 @@ from dance_core.registry import Registry
 NOMINAL_HEIGHT = 1.7  # metres, for skeletons of unknown units and implausible size
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "dm": 0.1, "in": 0.0254, "inch": 0.0254}
 _POSITION_CHANNEL = re.compile(r"^(.+)[._]([xyzXYZ])$")
-
-
-def motion_files(folder: Path, registry: Registry, only: list[str] | None = None) -> list[Path]:
-    """Every file in ``folder`` whose suffix a registered motion format reads (or one of ``only``)."""
-    if not folder.is_dir():
-        raise DataError(f"{folder}: not a folder of motion files")
-    suffixes = {s for e in registry.entries("motion-format") for s in e.info.get("suffixes", ())}
-    if only:
-        wanted = {s.lower() if s.startswith(".") else f".{s.lower()}" for s in only}
-        unknown = sorted(wanted - suffixes)
-        if unknown:
-            raise DataError(f"no motion format reads {', '.join(unknown)} (readable: {', '.join(sorted(suffixes))})")
-        suffixes = wanted
-    files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in suffixes)
-    if not files:
-        raise DataError(f"{folder}: no motion files (readable: {', '.join(sorted(suffixes))})")
-    return files
-
-
-def read_motion_file(path: Path, registry: Registry) -> MotionData:
-    """Read one motion file with the format registered for its suffix (the highest priority wins)."""
-    able = [e for e in registry.entries("motion-format") if path.suffix.lower() in e.info.get("suffixes", ())]
-    if not able:
-        raise DataError(f"{path}: no motion format reads {path.suffix!r}")
-    entry = max(able, key=lambda e: e.info.get("priority", 0))
-    return entry.build().read(str(path))
 
 
 def metres_per_unit(skeleton) -> float:
@@ -132,7 +108,7 @@ def attach_music(clips: list[JointClip], music_dir: str | Path, registry: Regist
         raise DataError(f"{folder}: not a folder of music")
     from dance_core.data.features import load_audio
 
-    audio_suffixes = {s for e in registry.entries("audio-reader") for s in e.info.get("suffixes", ())}
+    audio_suffixes = readable_audio(registry)
     cache: dict[Path, np.ndarray] = {}
     methods: Counter[str] = Counter()
     notes = []

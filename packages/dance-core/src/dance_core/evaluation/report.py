@@ -8,9 +8,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from pydantic import ValidationError
-
-from dance_core.errors import DanceError, DataError, PluginError
+from dance_core.errors import DanceError, DataError
 from dance_core.protocols import JointClip, MetricResult
 from dance_core.registry import Registry, get_registry
 
@@ -56,13 +54,7 @@ def build_metric(name: str, registry: Registry, options: dict[str, Any] | None =
     opts = dict(options or {})
     if compat and entry.config is not None and "compat" in entry.config.model_fields:
         opts.setdefault("compat", True)
-    try:
-        config = entry.config(**opts) if entry.config is not None else None
-    except ValidationError as exc:
-        err = exc.errors()[0]
-        field_name = ".".join(str(x) for x in err["loc"]) or name
-        raise PluginError(f"metric {name}: {field_name}: {err['msg']}") from None
-    return entry.build(config)
+    return registry.create("metric", name, opts)
 
 
 def evaluate(

@@ -42,11 +42,17 @@ class SourceMap:
         return best[1] if best else "<recipe>"
 
 
+def _other_component(base: Any, value: Any) -> bool:
+    """True when ``value`` names a different plugin than ``base``: the component is replaced, not merged."""
+    return isinstance(base, dict) and "plugin" in value and value.get("plugin") != base.get("plugin")
+
+
 def deep_merge(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
-    """Merge mappings recursively; anything else in ``override`` replaces the base value."""
+    """Merge mappings recursively; anything else in ``override`` replaces the base value, and so does a
+    component (``{plugin: ...}``) naming another plugin: the base's options belong to the base's plugin."""
     merged = copy.deepcopy(base)
     for key, value in override.items():
-        if isinstance(value, dict) and isinstance(merged.get(key), dict):
+        if isinstance(value, dict) and isinstance(merged.get(key), dict) and not _other_component(merged[key], value):
             merged[key] = deep_merge(merged[key], value)
         else:
             merged[key] = copy.deepcopy(value)
@@ -144,13 +150,12 @@ def validate_components(recipe: Recipe, smap: SourceMap, registry: Registry) -> 
             problems.append(f"{smap.where(loc + ('plugin',))}: {dotted(loc)}.plugin: {exc}")
             continue
         spec._entry = entry
-        if entry.config is None:
-            spec._config = None
-            continue
         try:
-            spec._config = entry.config.model_validate(spec.options())
+            spec._config = entry.validate(spec.options())
         except ValidationError as exc:
             problems.extend(_render(exc.errors(), smap, loc))
+        except PluginError as exc:
+            problems.append(f"{smap.where(loc)}: {dotted(loc)}: {exc}")
     if problems:
         raise RecipeError("\n".join(problems))
 

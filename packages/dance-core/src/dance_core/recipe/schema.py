@@ -34,11 +34,11 @@ class ComponentSpec(BaseModel):
             raise RuntimeError(f"component {self.plugin!r} has not been validated")
         return self._config
 
-    def build(self, **context: Any) -> Any:
-        """Build the component with its validated config and the given context."""
+    def build(self, context: Any = None) -> Any:
+        """Build the component with its validated config and its kind's context (``dance_core.contexts``)."""
         if self._entry is None:
             raise RuntimeError(f"component {self.plugin!r} has not been validated")
-        return self._entry.build(self._config, **context)
+        return self._entry.build(self._config, context)
 
 
 class ModelSpec(Strict):

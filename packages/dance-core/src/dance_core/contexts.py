@@ -1,0 +1,76 @@
+"""Typed build contexts: what core hands a component's builder besides its validated config.
+
+A builder registered for a kind is called as ``build(config, **fields(context))``: the fields of that
+kind's context arrive as keyword arguments, so a builder takes the ones it needs and ``**_`` for the
+rest. Kinds without a context here are built from their config alone.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+from dance_core.protocols import Window
+
+
+@dataclass(frozen=True)
+class ConditionerContext:
+    """A conditioner embeds one feature stream: its name and width."""
+
+    input: str
+    in_dim: int
+
+
+@dataclass(frozen=True)
+class EncoderContext:
+    """An encoder sees past motion of ``motion_dim`` channels and conditioning streams of these widths
+    (a stream's conditioner output width when it has one, else the raw feature width)."""
+
+    motion_dim: int
+    cond_dims: Mapping[str, int] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class HeadContext:
+    """A head turns the encoder's latent into ``motion_dim`` channels per frame."""
+
+    motion_dim: int
+    latent_dim: int
+    latent_tokens: int | None
+    window: Window
+
+
+@dataclass(frozen=True)
+class DatasetContext:
+    """A dataset produces clips at the recipe's ``fps`` and ``seed``; relative paths are from ``root``."""
+
+    fps: float
+    seed: int = 0
+    root: str = "."
+
+
+@dataclass(frozen=True)
+class NoContext:
+    """Kinds built from their config alone (features, readers, formats, representations, metrics...)."""
+
+
+#: the context type each kind's builder receives
+CONTEXTS: dict[str, type] = {
+    "conditioner": ConditionerContext,
+    "encoder": EncoderContext,
+    "head": HeadContext,
+    "dataset": DatasetContext,
+}
+
+
+def context_type(kind: str) -> type:
+    """The context dataclass of a kind (``NoContext`` for kinds built from their config alone)."""
+    return CONTEXTS.get(kind, NoContext)
+
+
+def as_kwargs(context: Any) -> dict[str, Any]:
+    """The keyword arguments a builder receives for a context object (``None``: none)."""
+    if context is None:
+        return {}
+    return {f.name: getattr(context, f.name) for f in fields(context)}

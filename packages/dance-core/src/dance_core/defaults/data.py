@@ -1,0 +1,22 @@
+"""Core's datasets: synthetic music and dancers, and folders of real music/motion pairs."""
+
+from __future__ import annotations
+
+from dance_core.components import configs as c
+from dance_core.data import dataset_configs as dc
+from dance_core.hookspecs import hookimpl
+
+
+@hookimpl
+def register_datasets(register):
+    """Core's synthetic and folder datasets."""
+    register("synthetic-beats", c.SyntheticBeatsConfig, "dance_core.components.synthetic:build",
+             "click-track music with known beats and a beat-locked dancer")
+    register("synthetic-dance", dc.SyntheticDanceConfig, "dance_core.data.synthetic_dance:build",
+             "synthesized songs (drums, bass, chords) with a beat-locked SMPL dancer and move labels")
+    register("folder", dc.FolderDatasetConfig, "dance_core.data.folders:build_folder",
+             "a folder of name.<audio> + name.<motion> pairs (optional name.texts), cached features")
+    register("aist", dc.AistDatasetConfig, "dance_core.data.folders:build_aist",
+             "AIST++ layout: motions/*.pkl (SMPL, 60 fps), wav/, splits/; music id from the name")
+    register("humanml3d", dc.HumanMLConfig, "dance_core.data.folders:build_humanml",
+             "HumanML3D new_joints (T, 22, 3) at 20 fps with captions (no music)")

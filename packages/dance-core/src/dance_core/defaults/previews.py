@@ -1,0 +1,23 @@
+"""Core's previews: stick-figure GIF, MP4 and offline HTML player (write-only motion formats), and
+``dance render``."""
+
+from __future__ import annotations
+
+from dance_core.hookspecs import hookimpl
+from dance_core.motion import configs as mc
+
+
+@hookimpl
+def register_motion_formats(register):
+    """Write-only preview formats (``write_only=True``: never chosen to read a file)."""
+    for kind, what in (("gif", "animated GIF"), ("mp4", "MP4 video with the song"), ("html", "offline HTML player")):
+        register(kind, mc.PreviewFormatConfig, "dance_core.render.preview:build",
+                 f"stick-figure preview: {what} (write only)", suffixes=(f".{kind}",), write_only=True)
+
+
+@hookimpl
+def register_commands(subparsers):
+    """``dance render``: a preview of a motion file."""
+    from dance_core.cli import render
+
+    render.add_parser(subparsers)
