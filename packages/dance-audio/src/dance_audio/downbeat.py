@@ -6,8 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from dance_core.errors import DataError
-from dance_core.media import Audio, FeatureInputs
+from dance_core import Audio, DataError, FeatureInputs
 
 from .memo import LastAudioMemo
 from .timing import resample, retime

@@ -63,7 +63,7 @@ def madmom_available() -> bool:
 
 def import_madmom():
     """Import madmom with the compatibility fixes applied; a missing madmom is a PluginError."""
-    from dance_core.errors import PluginError
+    from dance_core import PluginError
 
     if not madmom_available():
         raise PluginError(INSTALL_HINT)

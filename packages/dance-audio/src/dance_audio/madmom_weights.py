@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dance_core.errors import PluginError
+from dance_core import PluginError
 
 from .madmom_compat import INSTALL_HINT
 

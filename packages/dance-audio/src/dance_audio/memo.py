@@ -6,7 +6,7 @@ import threading
 from collections.abc import Callable, Hashable
 from typing import Any
 
-from dance_core.media import Audio
+from dance_core import Audio
 
 
 class LastAudioMemo:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dance_core.hookspecs import hookimpl
+from dance_core import hookimpl
 
 from . import configs as c
 
@@ -45,7 +45,7 @@ def register_feature_extractors(register):
         "beats",
         c.BeatsConfig,
         f"{_M}.beats:build",
-        "beat and downbeat one-hots and phases (madmom DBN, librosa fallback) (6)",
+        "beat and downbeat one-hots and phases (librosa's tracker; madmom's DBN opt-in, non-commercial) (6)",
     )
     register(
         "word-tokens",

@@ -8,9 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from dance_core.data.features import check_audio_path
-from dance_core.errors import DataError
-from dance_core.media import Audio
+from dance_core import Audio, DataError, check_audio_path
 
 SUFFIXES = (".wav", ".wave", ".flac", ".ogg", ".oga", ".mp3", ".aif", ".aiff")
 SILENCE = 1e-4  # peak amplitude below which a file counts as silent

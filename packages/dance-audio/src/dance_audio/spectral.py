@@ -11,8 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from dance_core.errors import DataError
-from dance_core.media import Audio, FeatureInputs
+from dance_core import Audio, DataError, FeatureInputs
 
 from .memo import LastAudioMemo
 from .rhythm import spectral_flux

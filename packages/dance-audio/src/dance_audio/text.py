@@ -21,8 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from dance_core.errors import DataError, PluginError
-from dance_core.media import FeatureInputs, TextSpan
+from dance_core import DataError, FeatureInputs, PluginError, TextSpan
 
 PAD, SOS, EOS, UNK = "<pad>", "<sos>", "<eos>", "<unk>"
 SPECIALS = (PAD, SOS, EOS, UNK)
@@ -84,7 +83,7 @@ class Vocabulary:
 
     def save(self, path: str | Path) -> None:
         """Write atomically, one word per line (the special tokens first)."""
-        from dance_core.atomic import write_text
+        from dance_core import write_text
 
         write_text(path, "\n".join(self.words) + "\n")
 

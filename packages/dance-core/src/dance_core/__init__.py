@@ -1,11 +1,19 @@
-"""dance-core: plugin registry, recipes, protocols, training and composition loops."""
+"""dance-core: plugin registry, recipes, protocols, training and composition loops.
+
+The names exported here are the **stable API** for plugins: the first-party plugins import only
+these (and ``dance_core.testing`` in tests). Everything else in ``dance_core`` is internal and may
+change between minor versions. Names load on first use, so ``import dance_core`` stays light (no
+torch, no numpy until a protocol or media type is touched).
+"""
 
 from __future__ import annotations
 
+import importlib
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING, Any
 
 from dance_core.config import ComponentConfig
-from dance_core.errors import DanceError
+from dance_core.errors import CheckpointError, DanceError, DataError, PluginError, RecipeError, TrainingError
 from dance_core.hookspecs import hookimpl
 
 try:
@@ -13,4 +21,77 @@ try:
 except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0"
 
-__all__ = ["ComponentConfig", "DanceError", "hookimpl", "__version__"]
+#: public name -> the module that defines it (imported on first use)
+_LAZY: dict[str, str] = {
+    # protocols and the data they pass around
+    **dict.fromkeys(
+        ("Window", "TrainContext", "Conditioner", "Encoder", "OutputHead", "FeatureExtractor", "AudioReader",
+         "MotionData", "MotionFormat", "MotionRepresentation", "Dataset", "Schedule", "JointClip", "MetricResult",
+         "Metric"),
+        "dance_core.protocols",
+    ),
+    # what a builder receives besides its config
+    **dict.fromkeys(("ConditionerContext", "EncoderContext", "HeadContext", "DatasetContext"), "dance_core.contexts"),
+    # media
+    **dict.fromkeys(("Audio", "FeatureInputs", "TextSpan", "frame_count"), "dance_core.media"),
+    **dict.fromkeys(("ClipSource",), "dance_core.data.sources"),
+    **dict.fromkeys(("Motion", "Skeleton"), "dance_core.motion"),
+    # the registry
+    **dict.fromkeys(("Registry", "Entry", "get_registry"), "dance_core.registry"),
+    # helpers plugins need: audio in, files out
+    **dict.fromkeys(("load_audio", "check_audio_path"), "dance_core.data.features"),
+    **dict.fromkeys(("atomic_path", "write_bytes", "write_text"), "dance_core.atomic"),
+}
+
+__all__ = [
+    "CheckpointError",
+    "ComponentConfig",
+    "DanceError",
+    "DataError",
+    "PluginError",
+    "RecipeError",
+    "TrainingError",
+    "__version__",
+    "hookimpl",
+    *_LAZY,
+]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'dance_core' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
+
+if TYPE_CHECKING:  # for type checkers and editors; at run time the names load lazily
+    from dance_core.atomic import atomic_path, write_bytes, write_text
+    from dance_core.contexts import ConditionerContext, DatasetContext, EncoderContext, HeadContext
+    from dance_core.data.features import check_audio_path, load_audio
+    from dance_core.data.sources import ClipSource
+    from dance_core.media import Audio, FeatureInputs, TextSpan, frame_count
+    from dance_core.motion import Motion, Skeleton
+    from dance_core.protocols import (
+        AudioReader,
+        Conditioner,
+        Dataset,
+        Encoder,
+        FeatureExtractor,
+        JointClip,
+        Metric,
+        MetricResult,
+        MotionData,
+        MotionFormat,
+        MotionRepresentation,
+        OutputHead,
+        Schedule,
+        TrainContext,
+        Window,
+    )
+    from dance_core.registry import Entry, Registry, get_registry

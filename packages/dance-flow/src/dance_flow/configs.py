@@ -6,7 +6,7 @@ from typing import Literal
 
 from pydantic import Field, PositiveFloat, PositiveInt, model_validator
 
-from dance_core.config import ComponentConfig
+from dance_core import ComponentConfig
 
 Dropout = Field(0.0, ge=0.0, lt=1.0)
 

@@ -8,7 +8,7 @@ from typing import Any
 import torch
 from torch import nn
 
-from dance_core.protocols import TrainContext
+from dance_core import TrainContext
 from dance_flow.flow import FlowNet, base_distribution
 
 

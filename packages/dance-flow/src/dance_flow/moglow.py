@@ -15,7 +15,7 @@ from typing import Any
 import torch
 from torch import nn
 
-from dance_core.protocols import Window
+from dance_core import Window
 
 
 class MoGlowContext(nn.Module):

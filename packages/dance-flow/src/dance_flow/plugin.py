@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from dance_core.hookspecs import hookimpl
+from dance_core import hookimpl
 from dance_flow import configs as c
 
 RECIPES = Path(__file__).resolve().parent / "recipes"

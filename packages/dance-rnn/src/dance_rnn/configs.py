@@ -9,7 +9,7 @@ from typing import Literal
 
 from pydantic import Field, NonNegativeInt, PositiveFloat, PositiveInt
 
-from dance_core.config import ComponentConfig
+from dance_core import ComponentConfig
 
 
 class LocalAttentionConfig(ComponentConfig):

@@ -18,8 +18,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from dance_core.errors import RecipeError
-from dance_core.protocols import TrainContext
+from dance_core import RecipeError, TrainContext
 from dance_rnn.curriculum import ground_truth_inputs
 
 State = tuple[torch.Tensor, torch.Tensor]

@@ -14,7 +14,7 @@ from typing import Any
 import torch
 from torch import nn
 
-from dance_core.protocols import Window
+from dance_core import Window
 from dance_rnn.banded import banded_attention
 
 

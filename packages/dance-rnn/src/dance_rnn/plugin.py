@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from dance_core.hookspecs import hookimpl
+from dance_core import hookimpl
 from dance_rnn import configs as c
 
 _M = "dance_rnn"

@@ -25,17 +25,23 @@ TRACK_FPS = 100.0
 BANDS = (150.0, 400.0, 1000.0, 2500.0, 6000.0)
 
 
-def track_grid(audio: Audio, registry: Registry, tracker: str = "librosa") -> BeatGrid:
-    """Beats and downbeats of a song from the registered ``beats`` extractor (at 100 fps)."""
+def tracked_beats(audio: Audio, registry: Registry, tracker: str = "librosa") -> tuple[np.ndarray, np.ndarray]:
+    """Beat and downbeat frame indices at ``TRACK_FPS`` from the registered ``beats`` extractor
+    (dance-audio's; core tracks no beats itself). A ``PluginError`` when none is installed."""
     try:
         entry = registry.get("feature", "beats")
     except PluginError as exc:
-        raise PluginError(f"choreographing to music needs a beat tracker: {exc} (pip install dance-audio)") from exc
+        raise PluginError(f"tracking beats needs a 'beats' feature extractor: {exc} (pip install dance-audio)") from exc
     extractor = entry.build(entry.config_for({"tracker": tracker}))
     n = audio.n_frames(TRACK_FPS)
     cols = np.asarray(extractor.extract(FeatureInputs(n_frames=n, audio=audio), TRACK_FPS))
-    beats = np.flatnonzero(cols[:, 0] > 0.5)
-    down = set(np.flatnonzero(cols[:, 1] > 0.5).tolist())
+    return np.flatnonzero(cols[:, 0] > 0.5), np.flatnonzero(cols[:, 1] > 0.5)
+
+
+def track_grid(audio: Audio, registry: Registry, tracker: str = "librosa") -> BeatGrid:
+    """Beats and downbeats of a song as a ``BeatGrid`` (see ``tracked_beats``)."""
+    beats, downbeats = tracked_beats(audio, registry, tracker)
+    down = set(downbeats.tolist())
     where = audio.path or "music"
     if len(beats) < 4:
         raise DataError(f"{where}: only {len(beats)} beats found; nothing to dance to")

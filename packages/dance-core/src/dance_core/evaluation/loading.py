@@ -121,7 +121,7 @@ def attach_music(clips: list[JointClip], music_dir: str | Path, registry: Regist
             if song.suffix == ".beats":
                 cache[song], method = M.read_beats_file(song), "beat annotation files"
             else:
-                cache[song], method = M.audio_beats(load_audio(song, registry))
+                cache[song], method = M.audio_beats(load_audio(song, registry), registry)
             methods[method] += 1
         clip.music_beats = cache[song]
         clip.meta["music"] = str(song)

@@ -4,8 +4,8 @@ For a song ``NAME`` in the music folder, the first source that exists wins:
 
 1. ``NAME.beats``: a beat annotation (one beat per line, the time in seconds first, as madmom's
    and most MIR datasets' ``.beats`` files; ``dance evaluate`` writes none, it only reads them).
-2. The audio file ``NAME.<suffix>`` read by a registered audio reader, with beats from
-   dance-audio's beat tracker when that plugin provides one (``dance_audio.beats.track_beats``).
+2. The audio file ``NAME.<suffix>`` read by a registered audio reader, with beats from the
+   registered ``beats`` feature extractor (dance-audio's, its licence-clean ``librosa`` tracker).
 3. Otherwise a documented fallback: peaks of the spectral-flux onset strength of core's
    ``energy`` features (log-compressed, above its 1 s moving average), at least ``MIN_GAP`` apart.
    These are onsets, not a tracked beat grid: on music with a steady pulse (the synthetic click
@@ -14,7 +14,6 @@ For a song ``NAME`` in the music folder, the first source that exists wins:
 
 from __future__ import annotations
 
-import importlib
 import re
 from pathlib import Path
 
@@ -23,6 +22,7 @@ from scipy.ndimage import uniform_filter1d
 
 from dance_core.errors import DataError
 from dance_core.media import Audio
+from dance_core.registry import Registry
 
 ONSET_FPS = 100.0
 WINDOW_SECONDS = 0.023  # STFT window of the onset envelope (about 23 ms at any sample rate)
@@ -89,21 +89,14 @@ def onset_peaks(envelope: np.ndarray, fps: float, min_gap: float = MIN_GAP) -> n
     return np.sort(np.asarray(kept, dtype=np.float64)) / fps
 
 
-def tracker():
-    """dance-audio's beat tracker ``track_beats(audio)`` (beats with ``.times`` in s) when installed."""
-    try:
-        module = importlib.import_module("dance_audio.beats")
-    except ImportError:
-        return None
-    return getattr(module, "track_beats", None)
+def audio_beats(audio: Audio, registry: Registry, tracker: str = "librosa") -> tuple[np.ndarray, str]:
+    """Beat times of an audio signal and the name of the method that found them: the registered
+    ``beats`` extractor (dance-audio's, ``tracker`` as its option), else onset peaks."""
+    from dance_core.data.choreograph import TRACK_FPS, tracked_beats
 
-
-def audio_beats(audio: Audio) -> tuple[np.ndarray, str]:
-    """Beat times of an audio signal and the name of the method that found them."""
-    track = tracker()
-    if track is not None:
-        found = track(audio)
-        return np.asarray(getattr(found, "times", found), dtype=np.float64), "dance-audio beat tracker"
+    if "beats" in registry.names("feature"):
+        beats, _ = tracked_beats(audio, registry, tracker)
+        return beats / TRACK_FPS, f"'beats' extractor ({tracker} tracker)"
     return onset_peaks(onset_envelope(audio), ONSET_FPS), "energy onset peaks (fallback)"
 
 
