@@ -98,11 +98,6 @@ class BarModel:
     beat_range: np.ndarray  # (m,) uint64 beat-range states past a chain's first (the downbeat's first)
     downbeat_range: int  # how many of ``beat_range`` lie in the bar's first beat
 
-    @property
-    def beat_states(self) -> int:
-        """States of one beat (all periods)."""
-        return int(self.periods.sum())
-
     def viterbi(self, emit: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         """Decode ``(N, 3)`` log emissions (:func:`log_emissions`): the path's log probability,
         then per frame its beat index and beat-range flag (empty if no path is possible)."""

@@ -71,13 +71,13 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # for type checkers and editors; at run time the names load lazily
-    from dance_core.atomic import atomic_path, write_bytes, write_text
-    from dance_core.contexts import ConditionerContext, DatasetContext, EncoderContext, HeadContext
-    from dance_core.data.features import check_audio_path, load_audio
-    from dance_core.data.sources import ClipSource
-    from dance_core.media import Audio, FeatureInputs, TextSpan, frame_count
-    from dance_core.motion import Motion, Skeleton
-    from dance_core.protocols import (
+    from dance_core.atomic import atomic_path, write_bytes, write_text  # noqa: F401
+    from dance_core.contexts import ConditionerContext, DatasetContext, EncoderContext, HeadContext  # noqa: F401
+    from dance_core.data.features import check_audio_path, load_audio  # noqa: F401
+    from dance_core.data.sources import ClipSource  # noqa: F401
+    from dance_core.media import Audio, FeatureInputs, TextSpan, frame_count  # noqa: F401
+    from dance_core.motion import Motion, Skeleton  # noqa: F401
+    from dance_core.protocols import (  # noqa: F401
         AudioReader,
         Conditioner,
         Dataset,
@@ -94,4 +94,4 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time the names load l
         TrainContext,
         Window,
     )
-    from dance_core.registry import Entry, Registry, get_registry
+    from dance_core.registry import Entry, Registry, get_registry  # noqa: F401

@@ -49,9 +49,9 @@ class TrainContext:
 
 @runtime_checkable
 class Conditioner(Protocol):
-    """Per-frame embedding of one input stream: ``(B, T, in_dim) -> (B, T, out_dim)``."""
+    """Per-frame embedding of one input stream: ``(B, T, in_dim) -> (B, T, out_dim)`` (the stream's
+    name and width arrive in its ``ConditionerContext``)."""
 
-    input: str
     out_dim: int
 
     def __call__(self, features: torch.Tensor) -> torch.Tensor:

@@ -26,9 +26,8 @@ def mlp(sizes: list[int], dropout: float = 0.0) -> nn.Sequential:
 class MLPConditioner(nn.Module):
     """Per-frame MLP over one feature stream."""
 
-    def __init__(self, input: str, in_dim: int, dim: int, layers: int, dropout: float):
+    def __init__(self, in_dim: int, dim: int, layers: int, dropout: float):
         super().__init__()
-        self.input = input
         self.out_dim = dim
         self.net = mlp([in_dim] + [dim] * layers, dropout)
 
@@ -37,9 +36,9 @@ class MLPConditioner(nn.Module):
         return self.net(features)
 
 
-def build_mlp_conditioner(config, *, input: str, in_dim: int, **_: Any) -> MLPConditioner:
+def build_mlp_conditioner(config, *, in_dim: int, **_: Any) -> MLPConditioner:
     """Build the ``mlp`` conditioner."""
-    return MLPConditioner(input, in_dim, config.dim, config.layers, config.dropout)
+    return MLPConditioner(in_dim, config.dim, config.layers, config.dropout)
 
 
 class WindowMLP(nn.Module):

@@ -1,7 +1,6 @@
 """Skeletal motion: skeletons, rotations, forward kinematics, root representations and resampling.
 
-NumPy throughout (rotations through ``scipy.spatial.transform``); :mod:`dance_core.motion.torch_ops`
-has the differentiable torch versions that models need. Quaternions are scalar-last ``(x, y, z, w)``
+NumPy throughout (rotations through ``scipy.spatial.transform``). Quaternions are scalar-last ``(x, y, z, w)``
 as in SciPy; positions are Y-up. This package module imports nothing heavy: ``Motion`` and
 ``Skeleton`` load on first use, so plugin entry modules may import ``dance_core.motion.configs``.
 """

@@ -12,9 +12,7 @@ from typing import Any
 import numpy as np
 
 from dance_core.errors import DataError
-from dance_core.media import frame_count
 from dance_core.motion.fk import end_site_positions, forward_kinematics
-from dance_core.motion.rotations import unroll_quat
 from dance_core.motion.skeleton import Skeleton
 
 
@@ -106,10 +104,3 @@ class Motion:
                        rotations=None if self.rotations is None else self.rotations[:, perm],
                        joint_positions=None if self.joint_positions is None else self.joint_positions[:, perm])
 
-    def with_continuous_rotations(self) -> Motion:
-        """The same motion with quaternion signs made continuous over time."""
-        return self if self.rotations is None else replace(self, rotations=unroll_quat(self.rotations))
-
-    def expected_frames(self, fps: float) -> int:
-        """Frames this motion has at ``fps`` under the alignment rule."""
-        return frame_count(self.duration, fps)

@@ -75,15 +75,3 @@ def body25() -> Skeleton:
     names = [n for n, _, _ in _BODY25_TREE]
     parents = [-1 if p is None else names.index(p) for _, p, _ in _BODY25_TREE]
     return Skeleton(names, parents, np.array([o for _, _, o in _BODY25_TREE], float), units="m", name="body25")
-
-
-BUILTIN = {"smpl24": smpl24, "transflower21": transflower21, "body25": body25}
-
-
-def builtin(name: str) -> Skeleton:
-    """A built-in skeleton by name."""
-    from dance_core.errors import DataError
-
-    if name not in BUILTIN:
-        raise DataError(f"unknown skeleton {name!r}; built in: {', '.join(BUILTIN)}")
-    return BUILTIN[name]()
