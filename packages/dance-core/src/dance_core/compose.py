@@ -137,7 +137,7 @@ def compose(
             data.meta["audio_path"] = song.path
             stem = song.name if c.samples == 1 else f"{song.name}-{k}"
             for entry, fmt in formats:
-                path = out / f"{stem}{entry.info.get('suffixes', ('.' + entry.name,))[0]}"
+                path = out / f"{stem}{(entry.suffixes or ('.' + entry.name,))[0]}"
                 fmt.write(data, str(path))
                 written.append(path)
     return written

@@ -173,7 +173,7 @@ def music_files(paths: list[str], registry) -> list[Path]:
     """The audio files named, and those inside named folders (sorted), checked before any work."""
     from dance_core.errors import DataError
 
-    readable = {s for e in registry.entries("audio-reader") for s in e.info.get("suffixes", ())}
+    readable = set(registry.suffixes("audio-reader"))
     out: list[Path] = []
     for p in map(Path, paths):
         if p.is_dir():
