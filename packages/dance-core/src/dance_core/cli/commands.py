@@ -51,9 +51,8 @@ def plugins(args: Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from dance_core.registry import KINDS, get_registry
-
     from dance_core.plugins import get_plugin_manager
+    from dance_core.registry import KINDS, get_registry
 
     registry = get_registry()
     broken = get_plugin_manager().broken
