@@ -34,7 +34,7 @@ def test_beats_on_sample_match_hand_annotations(sample, annotated_beats):
     if not madmom_available():
         pytest.skip("the madmom extra is not installed")
     times, positions = annotated_beats
-    beats = track_beats(sample)  # auto: madmom's DBN on the torch-ported RNN
+    beats = track_beats(sample, "madmom")  # madmom's DBN on the ported RNN (opt-in)
     assert f_measure(beats.times, times) >= 0.9
     assert f_measure(beats.downbeats, times[positions == 1]) == 1.0
 
@@ -94,5 +94,24 @@ def test_downbeat_and_beat_features_on_clicks_at_known_times(make_clicks):
     for t in clicks[2:-2]:  # each click is a local activation peak within a frame of its time
         f = int(round(t * fps))
         assert abs(int(np.argmax(beat_or_downbeat[f - 5 : f + 6])) - 5) <= 1
-    beats = track_beats(audio)
+    beats = track_beats(audio, "madmom")
     assert f_measure(beats.times, clicks) >= 0.9
+
+
+def test_the_default_tracker_reads_no_madmom_file(make_clicks, monkeypatch):
+    """madmom's weights are non-commercial: only ``madmom`` or ``auto``, asked for by name, read them."""
+    import dance_audio.beats as beats_module
+    from dance_audio.configs import BeatsConfig
+
+    assert BeatsConfig().tracker == "librosa"
+
+    def no_madmom(*_):
+        raise AssertionError("madmom's files were read")
+
+    monkeypatch.setattr(beats_module, "track_madmom", no_madmom)
+    audio = make_clicks(np.arange(0.5, 5.6, 0.5), 6.0)
+    assert len(track_beats(audio).times) >= 4
+    inputs = FeatureInputs(n_frames=audio.n_frames(30.0), audio=audio)
+    assert beats_module.build(BeatsConfig()).extract(inputs, 30.0).shape == (180, 6)
+    with pytest.raises(AssertionError, match="madmom's files"):
+        track_beats(audio, "madmom")

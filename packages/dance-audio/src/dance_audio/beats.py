@@ -1,5 +1,11 @@
-"""Beat and downbeat tracking (madmom's DBN, reimplemented, on the downbeat RNN; librosa as the fallback) and the
-``beats`` extractor: one-hot beat and downbeat frames and the phase within beat and bar."""
+"""Beat and downbeat tracking and the ``beats`` extractor: one-hot beat and downbeat frames and the phase
+within beat and bar.
+
+Two trackers: ``librosa`` (the default: our equal implementation of librosa's dynamic-programming
+tracker, no model files) and ``madmom`` (madmom's DBN, reimplemented, on the downbeat RNN, which reads
+madmom's network weights, licensed CC BY-NC-SA 4.0, non-commercial). madmom's files are read only
+when asked for by name, or by ``auto`` (madmom when installed, else librosa), itself an opt-in.
+"""
 
 from __future__ import annotations
 
@@ -65,12 +71,18 @@ def track_librosa(audio: Audio, beats_per_bar: list[int], min_bpm: float, max_bp
     return Beats(times, positions.astype(np.int64))
 
 
+TRACKERS = ("librosa", "madmom", "auto")
+
+
 def track_beats(
-    audio: Audio, tracker: str = "auto", beats_per_bar=(3, 4), min_bpm: float = 55.0, max_bpm: float = 160.0
+    audio: Audio, tracker: str = "librosa", beats_per_bar=(3, 4), min_bpm: float = 55.0, max_bpm: float = 160.0
 ) -> Beats:
-    """Beats of a song: madmom when installed (``auto``), else librosa."""
+    """Beats of a song by ``tracker``: ``librosa`` (default, no model files), ``madmom`` (reads madmom's
+    non-commercial weights), or ``auto`` (an opt-in: madmom when installed, else librosa)."""
     from .madmom_compat import madmom_available
 
+    if tracker not in TRACKERS:
+        raise PluginError(f"beat tracker {tracker!r}: expected one of {', '.join(TRACKERS)}")
     if tracker == "madmom" or (tracker == "auto" and madmom_available()):
         return track_madmom(audio, list(beats_per_bar), min_bpm, max_bpm)
     return track_librosa(audio, list(beats_per_bar), min_bpm, max_bpm)

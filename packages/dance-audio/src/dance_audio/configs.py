@@ -54,14 +54,19 @@ class DownbeatConfig(ComponentConfig):
 class BeatsConfig(ComponentConfig):
     """Beat and downbeat times as one-hot frames and phases (sin, cos) within beat and bar.
 
+    The default tracker reads no model file; madmom's (non-commercial weights) only when asked for.
+
     The tempo range is a dance prior: beyond 160 BPM trackers mostly return the double of the
     danced tempo (AIST++ music spans 80-135 BPM), so the default stops there (madmom's is 215).
     """
 
-    tracker: Literal["auto", "madmom", "librosa"] = Field(
-        "auto", json_schema_extra={"generation": True},
-        description="beat tracker; the columns mean the same whichever tracked them, so a model trained on "
-        "one tracker's beats may compose with another's (madmom's weights are non-commercial: opt-in)",
+    tracker: Literal["librosa", "madmom", "auto"] = Field(
+        "librosa", json_schema_extra={"generation": True},
+        description="beat tracker: librosa (default; dance-audio's own implementation of librosa's, no model "
+        "files), madmom (madmom's DBN on its downbeat network, whose weight files are CC BY-NC-SA 4.0, "
+        "non-commercial: an opt-in, needs the dance-audio[madmom] extra) or auto (an opt-in too: madmom when "
+        "installed, else librosa). The columns mean the same whichever tracked them, so a model trained on "
+        "one tracker's beats may compose with another's",
     )
     beats_per_bar: list[PositiveInt] = Field(default_factory=lambda: [3, 4])
     min_bpm: PositiveFloat = 55.0

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dance_core import hookimpl
+from dance_core.hookspecs import hookimpl
 
 from . import configs as c
 
