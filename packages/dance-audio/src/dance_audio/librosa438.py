@@ -16,6 +16,9 @@ block's largest value, chroma to ~1e-6 after the per-frame max normalisation (ne
 tuning estimate and beat frames are the same (``tests/test_librosa_parts.py``). One shortcut: the
 percussive part's STFT is taken as ``STFT(y) - STFT(harmonic)`` (STFTs are linear and the two soft
 masks sum to 1), which saves an inverse and a forward STFT and differs from librosa's by rounding.
+
+``backend: librosa`` (:class:`LibrosaBackend`, the ``dance-audio[librosa]`` extra) makes the same
+librosa calls instead, on the same resampled signal, for whoever wants librosa's own numbers.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from dance_core.errors import DataError
+from dance_core.errors import DataError, PluginError
 from dance_core.media import FeatureInputs
 
 from .cepstrum import delta, mfcc
@@ -43,6 +46,7 @@ CQT_FMIN = C1  # librosa's default lowest constant-Q bin
 MFCC, CHROMA = 20, 12
 CHROMA_BINS_PER_OCTAVE = 36
 TOP_DB = 80.0
+LIBROSA_HINT = "librosa-438 with backend: librosa needs librosa: pip install 'dance-audio[librosa]'"
 
 
 class Librosa438:
@@ -84,11 +88,20 @@ class Librosa438:
         with one_blas_thread():
             return self._features(samples, rate, fps)
 
-    def _features(self, samples: np.ndarray, rate: int, fps: float) -> np.ndarray:
+    def _signal(self, samples: np.ndarray, rate: int, fps: float) -> tuple[np.ndarray, int]:
+        """The samples at the analysis rate, padded to at least one FFT window (very short clips)."""
         sr = self.rate(fps)
         y = resample(samples, rate, sr)
-        if len(y) < self.n_fft:  # very short clips: pad so every transform has a full window
+        if len(y) < self.n_fft:
             y = np.pad(y, (0, self.n_fft - len(y)))
+        return y, sr
+
+    def _octaves(self, sr: int) -> int:
+        """Constant-Q octaves above C1 that fit under 0.45 x the sample rate (at most 7, librosa's default)."""
+        return int(min(7, np.floor(np.log2(0.45 * sr / CQT_FMIN))))
+
+    def _features(self, samples: np.ndarray, rate: int, fps: float) -> np.ndarray:
+        y, sr = self._signal(samples, rate, fps)
         spec = stft(y, self.n_fft, self.hop)
         magnitude = np.abs(spec)
         mel_basis = _mel_basis(sr, self.n_fft, self.n_mels)
@@ -109,17 +122,57 @@ class Librosa438:
             rhythm = tempogram(onset, self.win, np.float32)
             chroma = chroma_job.result()
 
-        n = min(len(cepstra), len(chroma), len(onset), len(rhythm))
-        feats = np.concatenate(
-            [cepstra[:n], delta(cepstra, 3)[:n], chroma[:n], onset[:n, None], beat[:n, None], rhythm[:n]], axis=1
-        )
-        return np.nan_to_num(feats).astype(np.float32)
+        return _stack(cepstra, delta(cepstra, 3), chroma, onset, beat, rhythm)
 
     def _chroma(self, harmonic: np.ndarray, harmonic_spec: np.ndarray, sr: int) -> np.ndarray:
         """Constant-Q chroma of the harmonic part, tuned by the peaks of its spectrogram."""
         tuning = estimate_tuning(np.abs(harmonic_spec), sr, self.n_fft, bins_per_octave=CHROMA_BINS_PER_OCTAVE)
-        octaves = int(min(7, np.floor(np.log2(0.45 * sr / CQT_FMIN))))
-        return chroma_cqt(harmonic, sr, self.hop, tuning, octaves, CHROMA_BINS_PER_OCTAVE, CHROMA)
+        return chroma_cqt(harmonic, sr, self.hop, tuning, self._octaves(sr), CHROMA_BINS_PER_OCTAVE, CHROMA)
+
+
+class LibrosaBackend(Librosa438):
+    """The same 438 values from librosa's own calls (the DanceRevolution reference code's, with this
+    extractor's ``hop_length``, ``n_fft``, ``n_mels`` and tempogram window), on the same resampled signal."""
+
+    def _features(self, samples: np.ndarray, rate: int, fps: float) -> np.ndarray:
+        librosa = import_librosa()
+        y, sr = self._signal(samples, rate, fps)
+        stft_args = {"n_fft": self.n_fft, "hop_length": self.hop}
+        mel = librosa.feature.melspectrogram(y=y, sr=sr, n_mels=self.n_mels, **stft_args)
+        cepstra = librosa.feature.mfcc(S=librosa.power_to_db(mel, ref=np.max, top_db=TOP_DB), n_mfcc=MFCC)
+        harmonic, percussive = librosa.effects.hpss(y, **stft_args)
+        tuning = librosa.estimate_tuning(y=harmonic, sr=sr, bins_per_octave=CHROMA_BINS_PER_OCTAVE, **stft_args)
+        chroma = librosa.feature.chroma_cqt(
+            y=harmonic, sr=sr, hop_length=self.hop, tuning=tuning, n_chroma=CHROMA,
+            bins_per_octave=CHROMA_BINS_PER_OCTAVE, n_octaves=self._octaves(sr),
+        )
+        onset = librosa.onset.onset_strength(y=percussive, sr=sr, aggregate=np.median, n_mels=self.n_mels, **stft_args)
+        _, beats = librosa.beat.beat_track(onset_envelope=onset, sr=sr, hop_length=self.hop)
+        beat = np.zeros_like(onset)
+        beat[beats] = 1.0
+        rhythm = librosa.feature.tempogram(onset_envelope=onset, sr=sr, hop_length=self.hop, win_length=self.win)
+        return _stack(cepstra.T, librosa.feature.delta(cepstra, width=3).T, chroma.T, onset, beat, rhythm.T)
+
+
+def import_librosa():
+    """librosa (its numba kernels cached like ours); a one-line PluginError naming the extra without it."""
+    from .numba_cache import use_cache_dir
+
+    use_cache_dir()
+    try:
+        import librosa
+    except ImportError:
+        raise PluginError(LIBROSA_HINT) from None
+    return librosa
+
+
+def _stack(cepstra, deltas, chroma, onset, beat, rhythm) -> np.ndarray:
+    """The frames-first blocks side by side in the 438 layout, cut to the shortest, finite float32."""
+    n = min(len(cepstra), len(chroma), len(onset), len(rhythm))
+    feats = np.concatenate(
+        [cepstra[:n], deltas[:n], chroma[:n], onset[:n, None], beat[:n, None], rhythm[:n]], axis=1
+    )
+    return np.nan_to_num(feats).astype(np.float32)
 
 
 @lru_cache(maxsize=4)
@@ -131,5 +184,8 @@ def _mel_basis(rate: int, n_fft: int, n_mels: int) -> np.ndarray:
 
 
 def build(config: Any, **_: Any) -> Librosa438:
-    """Build the ``librosa-438`` extractor."""
+    """Build the ``librosa-438`` extractor with its ``backend`` (``librosa`` checks that librosa imports)."""
+    if getattr(config, "backend", "port") == "librosa":
+        import_librosa()
+        return LibrosaBackend(config.hop_length, config.n_fft, config.n_mels, config.tempogram_window)
     return Librosa438(config.hop_length, config.n_fft, config.n_mels, config.tempogram_window)
