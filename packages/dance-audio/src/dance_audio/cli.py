@@ -19,6 +19,10 @@ def run_features(args) -> int:
     from dance_core.media import FeatureInputs
     from dance_core.registry import get_registry
 
+    if args.plot:  # before any work: a missing matplotlib is one line, not a lost extraction
+        from .plot import require_plotting
+
+        require_plotting()
     registry = get_registry()
     names = args.extractors or ["librosa-438"]
     if args.fps <= 0:

@@ -10,13 +10,22 @@ import numpy as np
 from dance_core.media import Audio
 
 PLOT_FPS = 100.0
+PLOT_HINT = "`dance features --plot` needs matplotlib: pip install 'dance-audio[plots]'"
+
+
+def require_plotting() -> None:
+    """Check that matplotlib is installed (a one-line PluginError naming the extra if not)."""
+    from dance_core.render.frames import require_matplotlib
+
+    require_matplotlib(PLOT_HINT)
 
 
 def plot_song(audio: Audio, fps: float, out: Path) -> None:
-    """Draw the 80-band log-mel, the onset envelope and the tracked beats (downbeats bold) to ``out``."""
-    import matplotlib
+    """Draw the 80-band log-mel, the onset envelope and the tracked beats (downbeats bold) to ``out``.
 
-    matplotlib.use("Agg")
+    The beats are those of dance-audio's own tracker (librosa's method): no madmom file is read.
+    """
+    require_plotting()
     import matplotlib.pyplot as plt
 
     from dance_core.atomic import atomic_path
@@ -31,7 +40,7 @@ def plot_song(audio: Audio, fps: float, out: Path) -> None:
     onset = spectral_flux(db, np.mean)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        beats = track_beats(audio)
+        beats = track_beats(audio, "librosa")
     t_end = n / rate
     fig, (ax_mel, ax_onset) = plt.subplots(2, 1, figsize=(12, 6), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
     ax_mel.imshow(

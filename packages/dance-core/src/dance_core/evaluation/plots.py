@@ -14,9 +14,9 @@ from dance_core.protocols import JointClip
 
 
 def _pyplot():
-    import matplotlib
+    from dance_core.render.frames import require_matplotlib
 
-    matplotlib.use("Agg")
+    require_matplotlib("`dance evaluate --plot` needs matplotlib: pip install 'dance-core[plots]'")
     import matplotlib.pyplot as plt
 
     return plt

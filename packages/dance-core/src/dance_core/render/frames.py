@@ -1,14 +1,31 @@
-"""Stick-figure frames drawn with matplotlib (Agg): bones, a floor grid and the root's trail."""
+"""Stick-figure frames drawn with matplotlib (Agg): bones, a floor grid and the root's trail.
+
+matplotlib is an optional dependency (``dance-core[plots]``): it is imported only when a frame or a
+figure is drawn, and :func:`require_matplotlib` turns its absence into one line naming the extra.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Iterator
+from types import ModuleType
 
 import numpy as np
 
+from dance_core.errors import PluginError
 from dance_core.render.camera import Camera, frame_camera
 
 LEFT, RIGHT, CENTER = "#e4572e", "#2e86ab", "#333333"
+PLOTS_HINT = "GIF/MP4 previews and plots need matplotlib: pip install 'dance-core[plots]'"
+
+
+def require_matplotlib(hint: str = PLOTS_HINT) -> ModuleType:
+    """matplotlib, switched to the Agg backend; a PluginError saying ``hint`` when it is not installed."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise PluginError(hint) from None
+    matplotlib.use("Agg", force=False)
+    return matplotlib
 
 
 def bone_colors(names: list[str], parents: list[int]) -> list[str]:
@@ -35,10 +52,18 @@ def render_frames(
     positions: np.ndarray, parents: list[int], names: list[str], fps: float, width: int = 480, height: int = 480,
     trail: bool = True, title: str = "", camera: Camera | None = None,
 ) -> Iterator[np.ndarray]:
-    """RGB frames ``(height, width, 3)`` uint8, one per motion frame."""
-    import matplotlib
+    """RGB frames ``(height, width, 3)`` uint8, one per motion frame.
 
-    matplotlib.use("Agg", force=False)
+    matplotlib is checked when this is called, so that a missing one fails before any work starts.
+    """
+    require_matplotlib()
+    return _frames(positions, parents, names, fps, width, height, trail, title, camera)
+
+
+def _frames(
+    positions: np.ndarray, parents: list[int], names: list[str], fps: float, width: int, height: int,
+    trail: bool, title: str, camera: Camera | None,
+) -> Iterator[np.ndarray]:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 

@@ -23,10 +23,10 @@ def preview_fps(fps: float, wanted: float | None, gif: bool = False, cap: float 
 def write_gif(path: str | Path, positions: np.ndarray, parents: list[int], names: list[str], fps: float,
               width: int = 480, height: int = 480, trail: bool = True, title: str = "") -> int:
     """An animated GIF, one frame per motion frame (frame times rounded to 10 ms); returns the frame count."""
-    from PIL import Image
+    rendered = render_frames(positions, parents, names, fps, width, height, trail, title)  # checks matplotlib
+    from PIL import Image  # Pillow comes with matplotlib
 
-    frames = [Image.fromarray(f).quantize(colors=64, method=Image.Quantize.FASTOCTREE)
-              for f in render_frames(positions, parents, names, fps, width, height, trail, title)]
+    frames = [Image.fromarray(f).quantize(colors=64, method=Image.Quantize.FASTOCTREE) for f in rendered]
     with atomic_path(path) as tmp:
         frames[0].save(tmp, format="GIF", save_all=True, append_images=frames[1:], loop=0,
                        duration=10 * round(100 / fps), disposal=1, optimize=False)
