@@ -1,4 +1,5 @@
-"""The worked example in docs/plugins/ registers, validates from a recipe and computes loudness."""
+"""The worked example in docs/plugins/ registers, passes dance_core.testing's feature check, validates
+from a recipe and computes loudness."""
 
 import importlib.util
 import sys
@@ -10,7 +11,7 @@ import pytest
 from dance_core.errors import RecipeError
 from dance_core.media import Audio, FeatureInputs
 from dance_core.recipe import load_recipe
-from dance_core.testing import registered_plugin
+from dance_core.testing import check_feature, registered_plugin
 
 SRC = Path(__file__).resolve().parents[1] / "docs" / "plugins" / "dance-loudness" / "src"
 
@@ -27,6 +28,7 @@ def example_plugin(monkeypatch):
 def test_example_plugin_works_from_a_recipe(example_plugin):
     with registered_plugin(example_plugin, "loudness") as registry:
         assert registry.get("feature", "loudness").plugin == "loudness"
+        check_feature("loudness", {"window": 0.1}, fps=30.0)
         recipe = load_recipe("core-synthetic", ["features.music=[{plugin: energy}, {plugin: loudness, window: 0.1}]"])
         extractor = recipe.features["music"][1].build()
         rate = 8000

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dance_core.media import FeatureInputs
+from dance_core import FeatureInputs
 
 
 class Loudness:
