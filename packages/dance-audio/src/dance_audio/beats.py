@@ -14,8 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from dance_core.errors import DataError, PluginError
-from dance_core.media import Audio, FeatureInputs
+from dance_core import Audio, DataError, FeatureInputs, PluginError
 
 from .timing import event_phase, events_to_onehot, resample
 

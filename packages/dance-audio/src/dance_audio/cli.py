@@ -7,17 +7,14 @@ from pathlib import Path
 
 import numpy as np
 
-from dance_core.errors import DataError
+from dance_core import DataError
 
 KIND = "feature"
 
 
 def run_features(args) -> int:
     """Extract the named features of one song at ``args.fps`` and save them (and a plot) atomically."""
-    from dance_core.atomic import write_bytes
-    from dance_core.data.features import load_audio
-    from dance_core.media import FeatureInputs
-    from dance_core.registry import get_registry
+    from dance_core import FeatureInputs, get_registry, load_audio, write_bytes
 
     if args.plot:  # before any work: a missing matplotlib is one line, not a lost extraction
         from .plot import require_plotting

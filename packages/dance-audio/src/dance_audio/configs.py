@@ -6,7 +6,7 @@ from typing import Literal
 
 from pydantic import Field, PositiveFloat, PositiveInt
 
-from dance_core.config import ComponentConfig
+from dance_core import ComponentConfig
 
 
 class SoundFileReaderConfig(ComponentConfig):

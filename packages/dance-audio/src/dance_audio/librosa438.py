@@ -29,8 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from dance_core.errors import DataError, PluginError
-from dance_core.media import FeatureInputs
+from dance_core import DataError, FeatureInputs, PluginError
 
 from .cepstrum import delta, mfcc
 from .cqt import C1, chroma_cqt

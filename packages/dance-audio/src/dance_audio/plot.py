@@ -7,17 +7,19 @@ from pathlib import Path
 
 import numpy as np
 
-from dance_core.media import Audio
+from dance_core import Audio, PluginError
 
 PLOT_FPS = 100.0
 PLOT_HINT = "`dance features --plot` needs matplotlib: pip install 'dance-audio[plots]'"
 
 
 def require_plotting() -> None:
-    """Check that matplotlib is installed (a one-line PluginError naming the extra if not)."""
-    from dance_core.render.frames import require_matplotlib
-
-    require_matplotlib(PLOT_HINT)
+    """matplotlib on the Agg backend; a one-line PluginError naming the extra when it is not installed."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise PluginError(PLOT_HINT) from None
+    matplotlib.use("Agg", force=False)
 
 
 def plot_song(audio: Audio, fps: float, out: Path) -> None:
@@ -28,7 +30,7 @@ def plot_song(audio: Audio, fps: float, out: Path) -> None:
     require_plotting()
     import matplotlib.pyplot as plt
 
-    from dance_core.atomic import atomic_path
+    from dance_core import atomic_path
 
     from .beats import track_beats
     from .rhythm import spectral_flux
