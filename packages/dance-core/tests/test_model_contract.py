@@ -46,9 +46,11 @@ class StatefulHead(nn.Module):
             h = self.cell(torch.cat([prev, latent[:, t]], -1), h)
             err.append((self.out(h) - target[:, t]).abs().mean())
             prev = target[:, t]
+        self.seen_streams = {n: tuple(x.shape) for n, x in ctx.streams.items()}
         return {"loss": torch.stack(err).mean(), "q": torch.tensor(ctx.values.get("q", 0.0))}
 
-    def init_state(self, batch, generator):
+    def init_state(self, batch, generator, song=None):
+        self.song_shapes = (tuple(song.latent.shape), {n: tuple(x.shape) for n, x in song.streams.items()})
         return torch.randn(batch, 32, generator=generator) * 0.0
 
     def step(self, latent, history, state, temperature, generator):
@@ -102,6 +104,9 @@ def test_song_level_family_trains_and_generates_through_core(tmp_path):
     assert torch.equal(out[:, 0], seed[:, 0])
     assert model.encoder.calls == 1  # song-level: encoded once
     assert model.head.steps == 49  # one frame per step after the seed frame
+    # a sequence head sees the streams aligned with its target, and the whole song before generating
+    assert model.head.seen_streams == {"music": (8, 23, 32)}  # conditioned (mlp, dim 32)
+    assert model.head.song_shapes[0][:2] == (2, 51) and model.head.song_shapes[1] == {"music": (2, 51, 32)}
 
 
 def test_windowed_multi_frame_head_keeps_k_frames():
@@ -159,3 +164,19 @@ def test_regression_head_after_a_song_level_encoder_predicts_every_frame(tmp_pat
         assert torch.allclose(loss, (pred - motion).abs().mean())
         out = trainer.model.generate(streams, 20, torch.zeros(8, 0, 18))
     assert out.shape == (8, 20, 18)
+
+
+def test_categorical_feature_channels_are_not_standardized():
+    import numpy as np
+
+    from dance_core.data.sources import Clip
+    from dance_core.data.stats import NormStats
+
+    rng = np.random.default_rng(0)
+    clips = [Clip(f"c{i}", rng.normal(size=(10, 3)).astype(np.float32),
+                  {"text": np.concatenate([rng.integers(0, 50, (10, 2)), rng.normal(5, 2, (10, 1))], 1)
+                   .astype(np.float32)}) for i in range(3)]
+    stats = NormStats.fit(clips, {"text": np.array([True, True, False])})
+    out = stats.apply(clips[0]).streams["text"]
+    np.testing.assert_array_equal(out[:, :2], clips[0].streams["text"][:, :2])  # ids kept
+    assert abs(out[:, 2].mean()) < 1.5 and not np.allclose(out[:, 2], clips[0].streams["text"][:, 2])

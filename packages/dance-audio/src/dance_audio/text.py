@@ -100,6 +100,9 @@ class Vocabulary:
 class WordTokens:
     """``max_words`` token ids per frame (float32 holding integers; all ``<pad>`` with no text)."""
 
+    #: ids, not measurements: core leaves them unstandardized
+    categorical = True
+
     def __init__(self, vocab_path: str, max_words: int):
         if max_words < 2:
             raise DataError(f"word-tokens: max_words must be at least 2, got {max_words}")

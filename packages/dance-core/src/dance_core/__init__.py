@@ -25,7 +25,7 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
 _LAZY: dict[str, str] = {
     # protocols and the data they pass around
     **dict.fromkeys(
-        ("Window", "TrainContext", "Conditioner", "Encoder", "OutputHead", "FeatureExtractor", "AudioReader",
+        ("Window", "TrainContext", "SongInputs", "Conditioner", "Encoder", "OutputHead", "FeatureExtractor", "AudioReader",
          "MotionData", "MotionFormat", "MotionRepresentation", "Dataset", "Schedule", "JointClip", "MetricResult",
          "Metric"),
         "dance_core.protocols",
@@ -91,6 +91,7 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time the names load l
         MotionRepresentation,
         OutputHead,
         Schedule,
+        SongInputs,
         TrainContext,
         Window,
     )

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from typing import Any
 
 import torch
@@ -11,7 +12,7 @@ from torch import nn
 
 from dance_core.contexts import ConditionerContext, EncoderContext, HeadContext
 from dance_core.errors import RecipeError
-from dance_core.protocols import TrainContext
+from dance_core.protocols import SongInputs, TrainContext
 from dance_core.recipe.schema import Recipe
 
 
@@ -134,6 +135,7 @@ class ComposedModel(nn.Module):
             h = head.history_frames
             latent = self.encoder(None, cond)
             if head.latent_tokens is None:  # a sequence head: the whole aligned segment at once
+                ctx = replace(ctx, streams={n: x[:, h:] for n, x in cond.items()})
                 return head.loss(latent[:, h:], motion[:, h:], motion[:, :h], ctx)
             return head.loss(*_aligned_windows(latent, motion, h, head.frames), ctx)
         t = self._lead() + w.motion_past
@@ -173,12 +175,13 @@ class ComposedModel(nn.Module):
         out[:, :start] = seed[:, seed.shape[1] - start :]
         keep = min(keep or head.keep, head.frames)
         streams = {n: x[:, :n_frames] for n, x in streams.items()}
-        state = head.init_state(batch, generator)
         h = head.history_frames
         if w.song_level:
             cond = self.condition({n: _edge_pad(x, 0, head.frames) for n, x in streams.items()})
             latent_all = self.encoder(None, cond)
+            state = head.init_state(batch, generator, song=SongInputs(latent_all, cond))
         else:
+            state = head.init_state(batch, generator)
             before, after = w.cond_past, w.cond_future + keep
             cond = self.condition({n: _edge_pad(x, before, after) for n, x in streams.items()})
         t = start

@@ -38,13 +38,28 @@ class Window:
 
 @dataclass
 class TrainContext:
-    """Where training stands, handed to every loss: step, epoch, stage and schedule values."""
+    """Where training stands, handed to every loss: step, epoch, stage and schedule values.
+
+    ``streams``: for heads behind a song-level encoder, the conditioned feature streams aligned with
+    the latent and target of this ``loss`` call (a head that reads an input the encoder does not
+    summarize, such as TM2D's text tokens); ``None`` behind windowed encoders.
+    """
 
     step: int
     epoch: int
     stage: str = "main"
     values: dict[str, float] = field(default_factory=dict)
     generator: Any = None
+    streams: dict[str, Any] | None = None
+
+
+@dataclass
+class SongInputs:
+    """What a head behind a song-level encoder sees before it generates: the whole song's latent
+    ``(B, T, d)`` and conditioned streams ``(B, T, C)``, frame-aligned, padded by the head's ``frames``."""
+
+    latent: Any
+    streams: dict[str, Any]
 
 
 @runtime_checkable
@@ -93,8 +108,10 @@ class OutputHead(Protocol):
         """Training losses; ``"loss"`` is the one optimized."""
         ...
 
-    def init_state(self, batch: int, generator: torch.Generator | None) -> Any:
-        """Generation state before the first step (for instance an LSTM's h0)."""
+    def init_state(self, batch: int, generator: torch.Generator | None, song: SongInputs | None = None) -> Any:
+        """Generation state before the first step (for instance an LSTM's h0). Behind a song-level
+        encoder core also passes ``song`` (the whole song's latent and streams) so that a sequence
+        head can plan over the song (TM2D's text spans); behind a windowed encoder it is not passed."""
         ...
 
     def step(
@@ -115,7 +132,11 @@ class OutputHead(Protocol):
 
 @runtime_checkable
 class FeatureExtractor(Protocol):
-    """Audio and/or text to ``(n_frames, dim)`` float32 features at ``fps``."""
+    """Audio and/or text to ``(n_frames, dim)`` float32 features at ``fps``.
+
+    An extractor whose columns are ids (word tokens) sets ``categorical = True``: core then leaves
+    them unstandardized, so a model can embed them.
+    """
 
     def dim(self) -> int:
         """Feature width."""

@@ -106,7 +106,7 @@ class Trainer:
                 if bar:
                     bar.update(task, advance=1, info=source.name)
         train, val = split_clips(clips, recipe.data.val_fraction, recipe.seed)
-        self.stats = NormStats.fit(train)
+        self.stats = NormStats.fit(train, self.stack.categorical())
         train = [self.stats.apply(c) for c in train]
         val = [self.stats.apply(c) for c in val]
         motion_dim = train[0].motion.shape[1]

@@ -60,7 +60,7 @@ class FlowHead(nn.Module):
         bits = nll / (self.frames * self.motion_dim * math.log(2.0))
         return {"loss": bits, "nats_per_frame": (nll / self.frames).detach()}
 
-    def init_state(self, batch: int, generator: torch.Generator | None = None) -> dict | None:
+    def init_state(self, batch: int, generator: torch.Generator | None = None, song: Any = None) -> dict | None:
         """The previous step's base noise when sampling is correlated; else no state."""
         return {"z": None} if self.correlation > 0 else None
 

@@ -47,7 +47,7 @@ class LSTMDecoder(nn.Module):
         )
         self.out = nn.Linear(config.hidden + latent_dim, motion_dim)
 
-    def init_state(self, batch: int, generator: torch.Generator | None = None) -> State:
+    def init_state(self, batch: int, generator: torch.Generator | None = None, song: Any = None) -> State:
         """``(h0, c0)``, each ``(layers, B, hidden)`` drawn from N(0, init_scale²)."""
         shape = (self.config.layers, batch, self.config.hidden)
         w = self.out.weight

@@ -106,7 +106,7 @@ class RegressionHead(nn.Module):
         err = (pred - target).abs() if self.loss_kind == "l1" else (pred - target).square()
         return {"loss": err.mean()}
 
-    def init_state(self, batch: int, generator=None) -> None:
+    def init_state(self, batch: int, generator=None, song=None) -> None:
         """No state."""
         return None
 

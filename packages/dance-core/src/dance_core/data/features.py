@@ -61,6 +61,14 @@ class FeatureStack:
         self.signature = {name: [{"plugin": s.plugin, **s.options()} for s in specs]
                           for name, specs in recipe.features.items()}
 
+    def categorical(self) -> dict[str, np.ndarray]:
+        """Per stream, which channels hold ids (extractors with ``categorical = True``): never standardized."""
+        return {
+            name: np.concatenate([np.full(x.dim(), bool(getattr(x, "categorical", False))) for _, x in exts])
+            if exts else np.zeros(0, bool)
+            for name, exts in self.streams.items()
+        }
+
     def dims(self) -> dict[str, int]:
         """Width of every stream."""
         return {name: sum(x.dim() for _, x in exts) for name, exts in self.streams.items()}

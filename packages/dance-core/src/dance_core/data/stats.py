@@ -44,13 +44,15 @@ class NormStats:
     streams: dict[str, Standardizer]
 
     @classmethod
-    def fit(cls, clips: list[Clip]) -> NormStats:
-        """Fit on training clips."""
+    def fit(cls, clips: list[Clip], categorical: dict[str, np.ndarray] | None = None) -> NormStats:
+        """Fit on training clips; ``categorical`` channels (ids, per stream a boolean mask) are left as they are."""
         names = clips[0].streams.keys()
-        return cls(
-            Standardizer.fit([c.motion for c in clips]),
-            {n: Standardizer.fit([c.streams[n] for c in clips]) for n in names},
-        )
+        streams = {n: Standardizer.fit([c.streams[n] for c in clips]) for n in names}
+        for name, mask in (categorical or {}).items():
+            if name in streams and mask.any():
+                streams[name].mean[mask] = 0.0
+                streams[name].std[mask] = 1.0
+        return cls(Standardizer.fit([c.motion for c in clips]), streams)
 
     def apply(self, clip: Clip) -> Clip:
         """A standardized copy of a clip."""
