@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dance_core.hookspecs import hookimpl
+from dance_core import hookimpl
 
 from . import configs as c
 
@@ -52,18 +52,21 @@ def register_feature_extractors(register):
         c.WordEmbeddingConfig,
         f"{_M}.text:build_word_tokens",
         "token ids of each frame's instruction, for a learned word embedding (TM2D)",
+        reads=("text",),
     )
     register(
         "glove",
         c.GloveConfig,
         f"{_M}.text:build_glove",
         "mean GloVe vector of each frame's instruction, from a user-supplied file (+1 flag)",
+        reads=("text",),
     )
     register(
         "sentence",
         c.SentenceEmbeddingConfig,
         f"{_M}.text:build_sentence",
         "all-MiniLM-L6-v2 sentence embedding, offline (dance-audio[text]) (384+1)",
+        reads=("text",),
     )
 
 

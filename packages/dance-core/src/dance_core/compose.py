@@ -13,10 +13,10 @@ from dance_core.data.features import FeatureStack, load_audio
 from dance_core.data.files import read_motion_file
 from dance_core.data.prepare import decode_motion, encode_seed, stored_representation
 from dance_core.errors import DanceError, DataError, RecipeError
-from dance_core.media import frame_count
+from dance_core.media import TextSpan, frame_count
 from dance_core.model import ComposedModel, build_model
 from dance_core.protocols import MotionData
-from dance_core.recipe.schema import Recipe
+from dance_core.recipe.schema import Recipe, TextSpec
 from dance_core.registry import Registry, get_registry
 from dance_core.runtime import generation_threads, pick_device, progress_bar
 
@@ -52,11 +52,33 @@ def seed_motion(spec: str | None, ckpt: Checkpoint, frames: int, registry: Regis
     return values[len(values) - frames :]
 
 
-def load_song(path: str, stack: FeatureStack, ckpt: Checkpoint, seconds: float | None, registry: Registry) -> Song:
-    """Features of one song, standardized with the checkpoint's statistics."""
+def reads_text(recipe: Recipe, registry: Registry) -> bool:
+    """True when one of the recipe's feature extractors reads text (registered with ``reads=("text",)``)."""
+    return any("text" in registry.get("feature", spec.plugin).info.get("reads", ("audio",))
+               for specs in recipe.features.values() for spec in specs)
+
+
+def song_texts(texts: list[TextSpec], duration: float, where: str) -> tuple[TextSpan, ...]:
+    """The recipe's text spans on one song (an open end is the song's end); a span past the song is an error."""
+    spans = []
+    for i, t in enumerate(texts):
+        start, end = t.start or 0.0, min(t.end or duration, duration)
+        if start >= duration:
+            raise DataError(
+                f"{where}: compose.texts.{i}: starts at {start:g} s, after the song's end ({duration:.1f} s)"
+            )
+        spans.append(TextSpan(t.text, start, end))
+    return tuple(spans)
+
+
+def load_song(
+    path: str, stack: FeatureStack, ckpt: Checkpoint, seconds: float | None, registry: Registry,
+    texts: list[TextSpec] = (),
+) -> Song:
+    """Features of one song (and its text spans), standardized with the checkpoint's statistics."""
     audio = load_audio(path, registry)
     n_audio = audio.n_frames(stack.fps)
-    raw = stack.extract(n_audio, audio)
+    raw = stack.extract(n_audio, audio, song_texts(list(texts), n_audio / stack.fps, path))
     n = frame_count(seconds, stack.fps) if seconds else n_audio
     streams = {}
     for name, values in raw.items():
@@ -69,7 +91,9 @@ def load_song(path: str, stack: FeatureStack, ckpt: Checkpoint, seconds: float |
     return Song(Path(path).stem, streams, n, str(path))
 
 
-def load_model(recipe: Recipe, checkpoint: str | Path, device: torch.device) -> tuple[ComposedModel, Checkpoint, FeatureStack]:
+def load_model(
+    recipe: Recipe, checkpoint: str | Path, device: torch.device
+) -> tuple[ComposedModel, Checkpoint, FeatureStack]:
     """Build the recipe's model and load a checkpoint that matches it."""
     ckpt = load_checkpoint(checkpoint)
     check_matches(ckpt, recipe)
@@ -95,10 +119,14 @@ def compose(
     songs_in = music or [recipe.resolve_path(m) for m in c.music]
     if not songs_in:
         raise RecipeError(f"{recipe._origin}: compose.music: no song given (or pass --music)")
+    if c.texts and not reads_text(recipe, registry):
+        features = ", ".join(s.plugin for specs in recipe.features.values() for s in specs)
+        raise RecipeError(f"{recipe._origin}: compose.texts: this model reads no text (features: {features}); "
+                          "drop --text or use a recipe with a text feature such as tm2d-small")
     formats = [(entry, entry.build()) for entry in (registry.find("motion-format", f) for f in c.formats)]
     device = pick_device(c.device, c.threads)
     model, ckpt, stack = load_model(recipe, checkpoint, device)
-    songs = [load_song(p, stack, ckpt, c.seconds, registry) for p in songs_in]
+    songs = [load_song(p, stack, ckpt, c.seconds, registry, c.texts) for p in songs_in]
     start = model.start_frames()
     seed = torch.from_numpy(seed_motion(_beside_recipe(c.seed_motion, recipe), ckpt, start, registry))
     total = max(s.n_frames for s in songs)

@@ -28,11 +28,27 @@ def compose(args: Namespace) -> int:
             extra.append(f"compose.{field}={value}")
     if args.formats:
         extra.append(f"compose.formats={json.dumps(args.formats)}")
+    if args.texts:
+        extra.append(f"compose.texts={json.dumps([_text(t).model_dump() for t in args.texts])}")
     recipe = _recipe(args, extra)
     written = run(recipe, music=args.music, checkpoint=args.checkpoint, out_dir=args.out, quiet=args.quiet)
     for path in written:
         print(path)
     return 0
+
+
+def _text(given: str):
+    """One ``--text`` as a TextSpec, or a one-line error naming it."""
+    from pydantic import ValidationError
+
+    from dance_core.errors import RecipeError
+    from dance_core.recipe.schema import TextSpec
+
+    try:
+        return TextSpec.parse(given)
+    except ValidationError as exc:
+        msg = exc.errors()[0]["msg"].removeprefix("Value error, ")
+        raise RecipeError(f"--text {given!r}: {msg}") from None
 
 
 def train(args: Namespace) -> int:

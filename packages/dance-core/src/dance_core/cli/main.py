@@ -66,6 +66,9 @@ def build_parser() -> Parser:
     p.add_argument("--seconds", type=float, help="length of each dance in seconds")
     p.add_argument("--seed-motion", help="motion file to start from, or 'rest'")
     p.add_argument("--format", dest="formats", action="append", help="output format (repeatable)")
+    p.add_argument("--text", dest="texts", action="append", metavar="[START-END:] TEXT",
+                   help='text instruction, e.g. "20-30: a person jumps" (seconds; no span: the whole song; '
+                        "repeatable; models that read text only)")
     _sets(p)
     p.set_defaults(run=commands.compose)
 

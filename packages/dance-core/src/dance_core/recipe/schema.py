@@ -3,9 +3,19 @@
 from __future__ import annotations
 
 import copy
+import re
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, PositiveInt, PrivateAttr, field_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PositiveFloat,
+    PositiveInt,
+    PrivateAttr,
+    field_validator,
+    model_validator,
+)
 
 
 class Strict(BaseModel):
@@ -123,6 +133,29 @@ class TrainingSpec(Strict):
         return self.stages or [StageSpec(name="main", steps=self.steps)]
 
 
+class TextSpec(Strict):
+    """A text instruction for a span of every composed song (seconds; no span: the whole song)."""
+
+    text: str = Field(min_length=1)
+    start: float | None = Field(None, ge=0.0)
+    end: float | None = Field(None, gt=0.0)
+
+    @model_validator(mode="after")
+    def _ordered(self) -> TextSpec:
+        if self.start is not None and self.end is not None and self.end <= self.start:
+            raise ValueError(f"end ({self.end:g} s) must come after start ({self.start:g} s)")
+        return self
+
+    @classmethod
+    def parse(cls, given: str) -> TextSpec:
+        """``"20-30: a person jumps"`` (span in seconds) or ``"a person jumps"`` (the whole song)."""
+        match = re.match(r"^\s*(\d+(?:\.\d*)?)?\s*-\s*(\d+(?:\.\d*)?)?\s*:\s*(.*)$", given, re.S)
+        if match is None:
+            return cls(text=given.strip())
+        start, end, text = match.groups()
+        return cls(text=text.strip(), start=float(start) if start else None, end=float(end) if end else None)
+
+
 class ComposeSpec(Strict):
     """What ``dance compose`` makes."""
 
@@ -143,6 +176,9 @@ class ComposeSpec(Strict):
     )
     ground: bool = Field(
         True, description="put skeletal dances on the floor and pin feet in contact (dance_core.motion.grounding)"
+    )
+    texts: list[TextSpec] = Field(
+        default_factory=list, description="text instructions over spans of each song (models that read text)"
     )
 
 
