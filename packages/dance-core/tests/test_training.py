@@ -145,3 +145,14 @@ def test_stages_train_only_their_prefixes(tiny_recipe, tmp_path):
     assert changed and all(k.startswith("head.") for k in changed)
     trainer.run(resume=True)
     assert any(not torch.equal(before[k], trainer.model.state_dict()[k]) for k in before if k.startswith("encoder."))
+
+
+def test_a_stage_may_set_its_own_batch_size(tiny_recipe, tmp_path):
+    recipe = tiny_recipe("training.stages=[{name: big, steps: 3, batch_size: 24}, {name: small, steps: 2, batch_size: 5}]")
+    trainer = Trainer(recipe, tmp_path, quiet=True)
+    sizes = []
+    real = trainer.sampler.batch
+    trainer.sampler.batch = lambda step, device, size=None: sizes.append(size) or real(step, device, size)
+    trainer.run()
+    assert sizes == [24, 24, 24, 5, 5]
+    assert real(0, "cpu", 7)[0].shape[0] == 7 and real(0, "cpu")[0].shape[0] == recipe.training.batch_size

@@ -208,7 +208,9 @@ class Trainer:
         checkpoint = self.run_dir / MODEL_FILE
         tick, tick_step = time.perf_counter(), start
         with progress_bar(self.quiet) as bar:
-            task = bar.add_task(f"train {self.recipe.name}", total=self.total, completed=start, info="") if bar else None
+            task = None
+            if bar:
+                task = bar.add_task(f"train {self.recipe.name}", total=self.total, completed=start, info="")
             end = min(self.total, stop_at) if stop_at else self.total
             for step in range(start, end):
                 index, local = stage_at(self.stages, step)
@@ -219,13 +221,13 @@ class Trainer:
                 lr = (stage.lr or self.t.optimizer.lr) * self.lr_schedule(local, ctx.epoch, stage.steps)
                 for group in optimizer.param_groups:
                     group["lr"] = lr
-                loss = self._step(step, optimizer, ctx)
+                loss = self._step(step, optimizer, ctx, stage.batch_size)
                 first = loss if step == start else first
                 last = loss
                 done = step + 1
                 if done % self.t.log_every == 0 or done == end:
                     now = time.perf_counter()
-                    rate = (done - tick_step) * self.t.batch_size / max(now - tick, 1e-9)
+                    rate = (done - tick_step) * (stage.batch_size or self.t.batch_size) / max(now - tick, 1e-9)
                     tick, tick_step = now, done
                     self._log({"step": done, "stage": stage.name, "epoch": ctx.epoch, "lr": lr,
                                "loss": loss, "segments_per_s": rate, **ctx.values})
@@ -241,8 +243,8 @@ class Trainer:
                     bar.update(task, completed=done)
         return TrainResult(self.run_dir, checkpoint, end, first, last, val_loss)
 
-    def _step(self, step: int, optimizer: torch.optim.Optimizer, ctx: TrainContext) -> float:
-        motion, streams = self.sampler.batch(step, self.device)
+    def _step(self, step: int, optimizer: torch.optim.Optimizer, ctx: TrainContext, size: int | None = None) -> float:
+        motion, streams = self.sampler.batch(step, self.device, size)
         with _autocast(self.device, self.precision):
             loss = self.model.training_loss(motion, streams, ctx, self.t.augment)["loss"]
         value = float(loss.detach())

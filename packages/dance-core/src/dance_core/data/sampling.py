@@ -41,16 +41,15 @@ class SegmentSampler:
         """How many distinct segments exist (the size of an epoch, in segments)."""
         return int(self.valid.sum())
 
-    def batch(self, index: int, device: torch.device | str = "cpu"):
-        """Batch ``index``: motion ``(B, L, D)`` and streams ``{name: (B, L, C)}``."""
+    def batch(self, index: int, device: torch.device | str = "cpu", size: int | None = None):
+        """Batch ``index``: motion ``(B, L, D)`` and streams ``{name: (B, L, C)}`` (``size``: B, else the default)."""
         rng = np.random.default_rng([self.seed, index])
-        picks = rng.choice(len(self.clips), size=self.batch_size, p=self.weights)
+        picks = rng.choice(len(self.clips), size=size or self.batch_size, p=self.weights)
         starts = rng.integers(0, self.valid[picks])
         sl = [slice(int(s), int(s) + self.length) for s in starts]
         motion = np.stack([self.clips[p].motion[s] for p, s in zip(picks, sl, strict=True)])
         names = self.clips[0].streams.keys()
-        streams = {
-            n: torch.from_numpy(np.stack([self.clips[p].streams[n][s] for p, s in zip(picks, sl, strict=True)])).to(device)
-            for n in names
-        }
+        pairs = list(zip(picks, sl, strict=True))
+        streams = {n: torch.from_numpy(np.stack([self.clips[p].streams[n][s] for p, s in pairs])).to(device)
+                   for n in names}
         return torch.from_numpy(motion).to(device), streams

@@ -83,6 +83,7 @@ class StageSpec(Strict):
     steps: PositiveInt
     trainable: list[str] = Field(default_factory=list, description="prefixes; empty: all")
     lr: PositiveFloat | None = None
+    batch_size: PositiveInt | None = Field(None, description="segments per batch in this stage; default training's")
 
 
 class AugmentSpec(Strict):
