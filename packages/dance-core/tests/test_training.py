@@ -148,7 +148,9 @@ def test_stages_train_only_their_prefixes(tiny_recipe, tmp_path):
 
 
 def test_a_stage_may_set_its_own_batch_size(tiny_recipe, tmp_path):
-    recipe = tiny_recipe("training.stages=[{name: big, steps: 3, batch_size: 24}, {name: small, steps: 2, batch_size: 5}]")
+    recipe = tiny_recipe(
+        "training.stages=[{name: big, steps: 3, batch_size: 24}, {name: small, steps: 2, batch_size: 5}]"
+    )
     trainer = Trainer(recipe, tmp_path, quiet=True)
     sizes = []
     real = trainer.sampler.batch
