@@ -148,7 +148,7 @@ class GoodHead(nn.Module):
     def loss(self, latent, target, history, ctx):
         return {"loss": (self.predict(latent) - target[:, :1]).square().mean()}
 
-    def init_state(self, batch, generator):
+    def init_state(self, batch, generator, song=None):
         return None
 
     def step(self, latent, history, state, temperature, generator):

@@ -25,7 +25,7 @@ from dance_core.contexts import ConditionerContext, DatasetContext, EncoderConte
 from dance_core.errors import DanceError, PluginError
 from dance_core.media import Audio, FeatureInputs, TextSpan
 from dance_core.plugins import check_hooks, get_plugin_manager
-from dance_core.protocols import JointClip, MetricResult, MotionData, TrainContext, Window
+from dance_core.protocols import JointClip, MetricResult, MotionData, SongInputs, TrainContext, Window
 
 __all__ = [
     "check_component",
@@ -236,7 +236,11 @@ def check_head(
         lat_gen = torch.Generator().manual_seed(99)
         with torch.inference_mode():
             with check.calling("init_state"):
-                state = head.init_state(batch, gen)
+                if song:  # behind a song-level encoder core hands the head the whole song first
+                    whole = torch.randn(batch, frames * n_steps, latent_dim, generator=lat_gen)
+                    state = head.init_state(batch, gen, song=SongInputs(whole, {}))
+                else:
+                    state = head.init_state(batch, gen)
             motion = torch.randn(batch, hist, d, generator=lat_gen)
             for i in range(n_steps):
                 lat = torch.randn(batch, frames if song else tokens, latent_dim, generator=lat_gen)
