@@ -6,7 +6,8 @@ exponential maps, periodic root offsets and root rates (travel, turning, per bea
 integrated over time. A groove shared by all moves dips the hips on every beat, so the hip's
 height minima (its zero vertical velocity at the bottom) sit on the music's beats. Moves change at
 bar lines with half a beat of blending; which move comes when depends on the section and a seed,
-so one song admits many dances.
+so one song admits many dances. :data:`PHRASINGS` words each move several ways (the captions of the
+``synthetic-moves`` text-motion clips); :func:`all_texts` lists every text the dancer can produce.
 """
 
 from __future__ import annotations
@@ -33,6 +34,27 @@ MOVES = {
     "walk": "a person walks in a circle",
 }
 NAMES = list(MOVES)
+#: several wordings of each move (the first is its label in MOVES): the captions of text-motion clips
+PHRASINGS = {
+    "bounce": (MOVES["bounce"], "someone bobs up and down in place", "the dancer bounces on their knees",
+               "a person grooves in place, bending the knees on every beat"),
+    "step-touch": (MOVES["step-touch"], "someone steps left and right", "the dancer sidesteps back and forth",
+                   "a person shuffles sideways and back again"),
+    "sway": (MOVES["sway"], "someone rocks their body from side to side", "the dancer sways gently",
+             "a person leans left and right, swinging the arms"),
+    "arm-wave": (MOVES["arm-wave"], "someone raises both arms and waves them", "the dancer waves both hands in the air",
+                 "a person lifts the arms above the head and ripples them"),
+    "clap": (MOVES["clap"], "someone claps their hands", "the dancer claps along to the rhythm",
+             "a person brings the hands together again and again"),
+    "spin": (MOVES["spin"], "someone turns around in place", "the dancer twirls on the spot",
+             "a person rotates all the way around"),
+    "jump": (MOVES["jump"], "someone hops up and down", "the dancer jumps in place",
+             "a person leaps into the air again and again"),
+    "kick": (MOVES["kick"], "someone kicks one leg and then the other", "the dancer alternates forward kicks",
+             "a person swings each foot out in front"),
+    "walk": (MOVES["walk"], "someone walks around in a circle", "the dancer strolls in a loop",
+             "a person paces around in a ring"),
+}
 #: preference of each section for each move (same order as MOVES)
 SECTION_WEIGHTS = {
     "intro": (4, 2, 4, 1, 2, 0, 0, 0, 1),
@@ -134,6 +156,12 @@ def _pose(move: str, beat: np.ndarray, phi: np.ndarray, bar_beats: int, st: Styl
         rot[:, ankle, 0] -= bend
     off[:, 1] -= st.groove * g
     return rot, off, rate
+
+
+def all_texts() -> list[str]:
+    """Every text the synthetic dancer labels motion with: all phrasings of all moves, in table order
+    (what a vocabulary for the synthetic corpora must cover, e.g. ``Vocabulary.build(all_texts())``)."""
+    return list(dict.fromkeys(t for move in NAMES for t in PHRASINGS[move]))
 
 
 def choose_moves(sections: list[tuple[str, int, int]], rng: np.random.Generator) -> list[int]:
