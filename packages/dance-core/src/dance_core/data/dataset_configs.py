@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal
 
-from pydantic import Field, PositiveFloat, PositiveInt
+from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, PositiveInt, ValidationError, field_validator
 
 from dance_core.config import ComponentConfig
 
@@ -47,3 +47,96 @@ class HumanMLConfig(ComponentConfig):
     path: str
     split: str | None = Field("train", description="split list (<path>/<split>.txt); None: all")
     fps: PositiveFloat = 20.0
+
+
+def _ordered(pair: tuple[float, float], what: str) -> tuple[float, float]:
+    """A ``(low, high)`` range, checked."""
+    if pair[0] > pair[1]:
+        raise ValueError(f"{what} range ({pair[0]:g}, {pair[1]:g}) runs backwards: give (low, high)")
+    return pair
+
+
+class SyntheticMovesConfig(ComponentConfig):
+    """Text-motion clips of the synthetic dancer: one labelled move each, no music (TM2D's text corpus)."""
+
+    clips: PositiveInt = 200
+    seconds: tuple[PositiveFloat, PositiveFloat] = Field((2.0, 10.0), description="clip length range, seconds")
+    bpm: tuple[PositiveFloat, PositiveFloat] = Field((80.0, 140.0), description="tempo range of the (unheard) count")
+    moves: list[str] | None = Field(None, description="moves to perform (names of synth_dance.MOVES); None: all")
+    rest: float = Field(0.5, ge=0.0, le=1.0, description="chance that a clip starts from the rest pose (and, "
+                        "drawn apart, that it ends in it)")
+    sample_rate: PositiveInt = Field(22050, description="rate of the silent audio every clip carries")
+    motion_fps: PositiveFloat | None = Field(None, description="frame rate of the dancer; default the recipe's")
+    seed: int = 0
+
+    @field_validator("seconds")
+    @classmethod
+    def _seconds(cls, v: tuple[float, float]) -> tuple[float, float]:
+        if v[0] < 1.0:
+            raise ValueError(f"clips must last at least 1 s, got {v[0]:g}")
+        return _ordered(v, "seconds")
+
+    @field_validator("bpm")
+    @classmethod
+    def _bpm(cls, v: tuple[float, float]) -> tuple[float, float]:
+        return _ordered(v, "bpm")
+
+    @field_validator("moves")
+    @classmethod
+    def _moves(cls, v: list[str] | None) -> list[str] | None:
+        from dance_core.data.synth_dance import MOVES
+
+        if v is not None:
+            unknown = [m for m in v if m not in MOVES]
+            if unknown or not v:
+                raise ValueError(f"unknown move(s) {', '.join(unknown) or '(none given)'}; known: {', '.join(MOVES)}")
+        return v
+
+
+class MixPart(BaseModel):
+    """One dataset of a ``mix``: ``{plugin, ...its options}``, and whether its texts are kept."""
+
+    model_config = ConfigDict(extra="allow", frozen=True)
+
+    plugin: str = Field(description="registered dataset name")
+    keep_texts: bool = Field(True, description="False drops this part's texts (a music-dance corpus without text)")
+
+    def options(self) -> dict[str, Any]:
+        """The sub-dataset's own options (everything but ``plugin`` and ``keep_texts``)."""
+        return dict(self.model_extra or {})
+
+
+class MixConfig(ComponentConfig):
+    """The clips of several datasets in one training set; each part is validated by its own plugin's config."""
+
+    datasets: list[MixPart] = Field(min_length=1)
+
+    @classmethod
+    def model_validate(cls, obj: Any, **kwargs: Any) -> MixConfig:
+        """Validate the mix, then every part with its registered config; a part's bad option is an error at
+        ``datasets.N.<field>`` (so a recipe names ``data.dataset.datasets.N.<field>`` and its line)."""
+        config = super().model_validate(obj, **kwargs)
+        config.check_parts()
+        return config
+
+    def check_parts(self) -> None:
+        """Raise pydantic's ``ValidationError`` naming ``datasets.N.<field>`` for every bad part option."""
+        from pydantic_core import PydanticCustomError
+
+        from dance_core.errors import PluginError
+        from dance_core.registry import get_registry
+
+        registry = get_registry()
+        errors: list[Any] = []
+        for i, part in enumerate(self.datasets):
+            try:
+                registry.get("dataset", part.plugin).validate(part.options())
+            except PluginError as exc:  # an unknown plugin, or options given to one that takes none
+                where = ("plugin",) if part.plugin not in registry.names("dataset") else ()
+                errors.append({"type": PydanticCustomError("value_error", str(exc)), "loc": ("datasets", i, *where),
+                               "input": part.plugin})
+            except ValidationError as exc:
+                errors += [{"type": PydanticCustomError(e["type"], e["msg"]), "loc": ("datasets", i, *e["loc"]),
+                            "input": e.get("input")} for e in exc.errors()]
+        if errors:
+            raise ValidationError.from_exception_data(type(self).__name__, errors)

@@ -14,6 +14,10 @@ def register_datasets(register):
              "click-track music with known beats and a beat-locked dancer")
     register("synthetic-dance", dc.SyntheticDanceConfig, "dance_core.data.synthetic_dance:build",
              "synthesized songs (drums, bass, chords) with a beat-locked SMPL dancer and move labels")
+    register("synthetic-moves", dc.SyntheticMovesConfig, "dance_core.data.synthetic_moves:build",
+             "text-motion clips: the SMPL dancer performing one move alone, described in words, no music")
+    register("mix", dc.MixConfig, "dance_core.data.mix:build",
+             "the clips of several datasets in one training set (optionally without a part's texts)")
     register("folder", dc.FolderDatasetConfig, "dance_core.data.folders:build_folder",
              "a folder of name.<audio> + name.<motion> pairs (optional name.texts), cached features")
     register("aist", dc.AistDatasetConfig, "dance_core.data.folders:build_aist",
