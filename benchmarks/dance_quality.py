@@ -336,7 +336,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--checkpoint", help="model checkpoint (default: the recipe's)")
     parser.add_argument("--music", nargs="+", type=Path, help=f"songs (default: {DEFAULT_MUSIC}/*.ogg)")
     parser.add_argument("--samples", type=int, default=1, help="dances per song (default 1)")
-    parser.add_argument("--tracker", default="auto", help="dance-audio beat tracker: auto, madmom, librosa")
+    parser.add_argument("--tracker", default="librosa",
+                        help="dance-audio beat tracker: librosa (default), madmom or auto "
+                             "(madmom's weights are non-commercial: opt-in)")
     parser.add_argument(
         "--set",
         dest="sets",

@@ -182,3 +182,15 @@ def test_extends_with_another_plugin_replaces_the_component(tmp_path):
     with pytest.raises(RecipeError) as err:
         load_recipe(tmp_path / "s.yaml")
     assert "unknown head 'other-head'" in str(err.value) and "loss" not in str(err.value)
+
+
+def test_a_preview_whose_extra_is_missing_fails_when_built_before_any_work(monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # as if dance-core[plots] were not installed
+    registry = Registry(make_plugin_manager(load_entry_points=False))
+    with pytest.raises(PluginError, match=r"pip install 'dance-core\[plots\]'"):
+        registry.create("motion-format", "gif")
+    with pytest.raises(PluginError, match=r"dance-core\[render\]"):
+        registry.create("motion-format", "mp4")
+    assert registry.create("motion-format", "html") is not None

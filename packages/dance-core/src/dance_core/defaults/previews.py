@@ -10,8 +10,9 @@ from dance_core.motion import configs as mc
 @hookimpl
 def register_motion_formats(register):
     """Write-only preview formats (``write_only=True``: never chosen to read a file)."""
-    for kind, what in (("gif", "animated GIF"), ("mp4", "MP4 video with the song"), ("html", "offline HTML player")):
-        register(kind, mc.PreviewFormatConfig, "dance_core.render.preview:build",
+    for kind, what, build in (("gif", "animated GIF", "build_gif"), ("mp4", "MP4 video with the song", "build_mp4"),
+                              ("html", "offline HTML player", "build")):
+        register(kind, mc.PreviewFormatConfig, f"dance_core.render.preview:{build}",
                  f"stick-figure preview: {what} (write only)", suffixes=(f".{kind}",), write_only=True)
 
 

@@ -56,5 +56,23 @@ class PreviewFormat:
 
 
 def build(config: Any = None, **_: Any) -> PreviewFormat:
-    """Build a preview format (``gif``, ``mp4`` or ``html``)."""
+    """Build the ``html`` preview format (no optional dependency)."""
+    return PreviewFormat(config)
+
+
+def build_gif(config: Any = None, **_: Any) -> PreviewFormat:
+    """Build the ``gif`` preview format; without matplotlib one line naming the extra, before any work."""
+    from dance_core.render.frames import require_matplotlib
+
+    require_matplotlib()
+    return PreviewFormat(config)
+
+
+def build_mp4(config: Any = None, **_: Any) -> PreviewFormat:
+    """Build the ``mp4`` preview format; without matplotlib or ffmpeg one line naming the extra, before any work."""
+    from dance_core.render.frames import require_matplotlib
+    from dance_core.render.video import ffmpeg_exe
+
+    require_matplotlib("MP4 previews need matplotlib and ffmpeg: pip install 'dance-core[render]'")
+    ffmpeg_exe()
     return PreviewFormat(config)
