@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from dance_core.atomic import write_text
 from dance_core.checkpoint import Checkpoint, check_matches, load_checkpoint, load_weights
 from dance_core.data.features import FeatureStack, load_audio
 from dance_core.data.files import read_motion_file
@@ -29,6 +30,7 @@ class Song:
     streams: dict[str, np.ndarray]
     n_frames: int
     path: str = ""
+    texts: tuple[TextSpan, ...] = ()
 
 
 def read_motion(path: str | Path, registry: Registry) -> MotionData:
@@ -78,7 +80,8 @@ def load_song(
     """Features of one song (and its text spans), standardized with the checkpoint's statistics."""
     audio = load_audio(path, registry)
     n_audio = audio.n_frames(stack.fps)
-    raw = stack.extract(n_audio, audio, song_texts(list(texts), n_audio / stack.fps, path))
+    spans = song_texts(list(texts), n_audio / stack.fps, path)
+    raw = stack.extract(n_audio, audio, spans)
     n = frame_count(seconds, stack.fps) if seconds else n_audio
     streams = {}
     for name, values in raw.items():
@@ -88,7 +91,7 @@ def load_song(
         if n > len(values):
             values = np.concatenate([values, np.repeat(values[-1:], n - len(values), axis=0)])
         streams[name] = values[:n]
-    return Song(Path(path).stem, streams, n, str(path))
+    return Song(Path(path).stem, streams, n, str(path), spans)
 
 
 def load_model(
@@ -168,6 +171,9 @@ def compose(
                 path = out / f"{stem}{(entry.suffixes or ('.' + entry.name,))[0]}"
                 fmt.write(data, str(path))
                 written.append(path)
+            if song.texts:  # the spans beside the dance, for dance evaluate (MPD at text starts)
+                lines = "".join(f"{t.start:.4f}\t{t.end:.4f}\t{' '.join(t.text.split())}\n" for t in song.texts)
+                write_text(out / f"{stem}.texts", lines)
     return written
 
 

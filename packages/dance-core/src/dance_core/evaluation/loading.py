@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from dance_core.data.files import audio_suffixes as readable_audio
-from dance_core.data.files import motion_files, read_motion_file
+from dance_core.data.files import motion_files, read_motion_file, read_texts
 from dance_core.errors import DataError
 from dance_core.evaluation import music as M
 from dance_core.evaluation.clips import resampled, z_up_to_y_up
@@ -77,6 +77,8 @@ def load_clips(
 ) -> list[JointClip]:
     """Every motion file of a folder as a Y-up ``JointClip`` named by its file stem.
 
+    A sidecar ``NAME.texts`` beside ``NAME.ext`` (``start<TAB>end<TAB>sentence`` lines, as
+    ``dance compose`` writes) puts its spans into ``meta["texts"]`` as ``(start, end, text)``.
     ``up`` overrides the up axis the format reports (``"y"`` or ``"z"``); ``on_file`` is called
     before each file is read (progress display); ``suffixes`` restricts the files read.
     """
@@ -91,7 +93,11 @@ def load_clips(
             raise DataError(f"{path}: up axis must be 'y' or 'z', got {axis!r}")
         if axis == "z":
             positions = z_up_to_y_up(positions)
-        clips.append(JointClip(path.stem, positions, float(data.fps), names, meta={"path": str(path)}))
+        meta: dict = {"path": str(path)}
+        sidecar = path.with_name(f"{path.stem}.texts")
+        if sidecar.is_file():
+            meta["texts"] = [(t.start, t.end, t.text) for t in read_texts(sidecar)]
+        clips.append(JointClip(path.stem, positions, float(data.fps), names, meta=meta))
     return clips
 
 
