@@ -26,6 +26,12 @@ def register_metrics(register):
         ("pfc", e.PFCConfig, "build_pfc", "EDGE's physical foot contact score"),
     ):
         register(name, config, f"{_M}:{build}", text)
+    register(
+        "mpd",
+        e.MPDConfig,
+        "dance_core.evaluation.mpd:build_mpd",
+        "TM2D's Motion Prediction Distance (m) to motion-matched futures of the reference dances",
+    )
 
 
 @hookimpl

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pydantic import Field, PositiveFloat, PositiveInt
+from pydantic import Field, PositiveFloat, PositiveInt, model_validator
 
 from dance_core.config import ComponentConfig
 
@@ -60,3 +60,29 @@ class PFCConfig(ComponentConfig):
     """Left ankle, left toe, right ankle, right toe joint names (default: SMPL-24 or known names)."""
 
     feet: list[str] | None = Field(None, min_length=4, max_length=4)
+
+
+class MPDConfig(ComponentConfig):
+    """TM2D's MPD: frame counts at ``fps`` (None: the reference's), futures ``k``, points and the predictor.
+
+    ``past``/``future`` frames before/after each evaluation point, values at future frames ``at``;
+    clips without texts are scored every ``stride`` seconds; one reference window every
+    ``reference_step`` frames; reference clips named like the scored clip are left out
+    (``exclude_same_name``); ``hips``: left and right hip joint names (default: SMPL-24 or known names).
+    """
+
+    fps: PositiveFloat | None = 60.0
+    past: PositiveInt = 25
+    future: PositiveInt = 30
+    at: list[PositiveInt] = Field(default_factory=lambda: [10, 20, 30], min_length=1)
+    k: PositiveInt = 10
+    stride: PositiveFloat = 2.0
+    reference_step: PositiveInt = 1
+    exclude_same_name: bool = True
+    hips: list[str] | None = Field(None, min_length=2, max_length=2)
+
+    @model_validator(mode="after")
+    def _at_within_future(self) -> MPDConfig:
+        if any(a > self.future for a in self.at):
+            raise ValueError(f"at={self.at}: every future frame must be at most future={self.future}")
+        return self
