@@ -1,9 +1,11 @@
 """A canonical body frame for windows of joint positions: root at the origin, hips facing +Z.
 
-Motion matching and motion prediction compare motions wherever and whichever way they happen on
-the floor. :func:`canonicalize` moves a window so that at one *anchor* frame the root's horizontal
-position is the origin and the body faces +Z (the left hip on +X), by a translation in the floor
-plane and a rotation about the vertical (Y) axis; heights are left as they are.
+Motion matching, motion prediction and the heading-free pose metrics (FPD, FMD, sample diversity)
+compare motions wherever and whichever way they happen on the floor. :func:`canonicalize` moves a
+window so that at one *anchor* frame the root's horizontal position is the origin and the body
+faces +Z (the left hip on +X), by a translation in the floor plane and a rotation about the
+vertical (Y) axis; heights are left as they are. :func:`canonical_windows` does so for every
+window of a few consecutive frames.
 """
 
 from __future__ import annotations
@@ -72,3 +74,23 @@ def canonicalize(positions: np.ndarray, anchor: int, left: int, right: int, root
     dx = p[..., 0] - at[..., root, 0][..., None, None]
     dz = p[..., 2] - at[..., root, 2][..., None, None]
     return np.stack([c * dx - s * dz, p[..., 1], s * dx + c * dz], axis=-1)
+
+
+def canonical_windows(positions: np.ndarray, span: int, left: int, right: int, anchor: int | None = None) -> np.ndarray:
+    """Every window of ``span`` consecutive frames of ``(T, J, 3)`` positions, each in its own body frame.
+
+    Returns ``(T - span + 1, span, J, 3)``: window ``i`` holds frames ``i .. i + span - 1``
+    canonicalized at its frame ``anchor`` (default the middle one, ``span // 2``; see
+    :func:`canonicalize`), so where and which way the dancer faced does not matter while the
+    window's own turning and travelling stay in.
+    """
+    return canonicalize(sliding_windows(positions, span), span // 2 if anchor is None else anchor, left, right)
+
+
+def sliding_windows(positions: np.ndarray, span: int) -> np.ndarray:
+    """Every window of ``span`` consecutive frames of ``(T, ...)`` values as ``(T - span + 1, span, ...)`` (a copy)."""
+    p = np.asarray(positions, dtype=np.float64)
+    n = len(p) - span + 1
+    if n < 1:
+        raise DataError(f"windows of {span} frames need at least {span} frames; got {len(p)}")
+    return np.stack([p[k : k + n] for k in range(span)], axis=1)

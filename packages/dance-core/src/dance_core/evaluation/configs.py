@@ -37,9 +37,13 @@ class FreezingConfig(ComponentConfig):
 
 
 class FrechetPoseConfig(ComponentConfig):
-    """``root_relative``: remove the root's horizontal position from every frame before comparing."""
+    """Poses in their own body frame (``hips``: left and right hip joint names, default SMPL-24 or known
+    names); ``compat: true``: in world orientation, with ``root_relative`` removing the root's
+    horizontal position from every frame (the earlier definition)."""
 
+    compat: bool = False
     root_relative: bool = True
+    hips: list[str] | None = Field(None, min_length=2, max_length=2)
 
 
 class BeatOffsetConfig(ComponentConfig):

@@ -9,6 +9,7 @@ import numpy as np
 
 from dance_core.errors import DataError
 from dance_core.evaluation import beats as B
+from dance_core.evaluation.canon import canonical_windows, hip_indices, sliding_windows
 from dance_core.evaluation.clips import check_positions, require_clips, require_frames, same_joint_count
 from dance_core.evaluation.contact import SCALE, foot_indices, pfc_clip
 from dance_core.evaluation.frechet import average_pairwise_distance, normalize, set_distance
@@ -189,41 +190,81 @@ class Freezing:
         return MetricResult(values, per_clip, notes)
 
 
-def pose_frames(clip: JointClip, root_relative: bool) -> np.ndarray:
-    """Flattened poses ``(T, 3 J)``, optionally with the root's horizontal position removed."""
-    p = check_positions(clip).copy()
-    if root_relative:
-        p[..., [0, 2]] -= p[:, :1, [0, 2]]
-    return p.reshape(len(p), -1)
+def pose_windows(
+    clips: Sequence[JointClip],
+    span: int,
+    what: str,
+    *,
+    heading_free: bool = True,
+    hips: list[str] | None = None,
+    root_relative: bool = True,
+) -> tuple[list[np.ndarray], list[str]]:
+    """Per clip, its windows of ``span`` consecutive poses flattened to ``(T - span + 1, 3 J span)``; notes.
+
+    ``heading_free``: each window in the body frame of its middle frame
+    (:func:`dance_core.evaluation.canon.canonical_windows`: root over the origin, hips facing +Z),
+    so a dance gives the same windows wherever and whichever way it is danced. When a clip's hips
+    cannot be found (and no ``hips`` are named) every clip falls back, with a note, to the
+    world-oriented windows: the frames as they are, with the root's horizontal position removed
+    from each frame when ``root_relative``.
+    """
+    for clip in clips:
+        require_frames(clip, span, what)
+    notes: list[str] = []
+    sides = None
+    if heading_free:
+        try:
+            sides = [hip_indices(clip, hips) for clip in clips]
+        except DataError as exc:
+            if hips is not None:
+                raise
+            notes.append(f"{what}: {exc}; poses compared in world orientation, not heading-free")
+    rows = []
+    for i, clip in enumerate(clips):
+        p = check_positions(clip)
+        if sides is not None:
+            w = canonical_windows(p, span, *sides[i])
+        else:
+            if root_relative:
+                p = p.copy()
+                p[..., [0, 2]] -= p[:, :1, [0, 2]]
+            w = sliding_windows(p, span)
+        rows.append(w.reshape(len(w), -1))
+    return rows, notes
 
 
 class FrechetPose:
-    """Transflower's FPD (poses) and FMD (three consecutive poses): Fréchet distances of raw frames."""
+    """Transflower's FPD (single poses) and FMD (three consecutive poses): Fréchet distances of pose windows.
+
+    By default every window is in its own body frame (:func:`pose_windows`), so neither where nor
+    which way a dancer faces counts; ``compat=True`` compares world-oriented frames with only the
+    root's horizontal position removed (``root_relative``), this metric's earlier definition.
+    """
 
     needs = ("reference",)
 
-    def __init__(self, span: int, root_relative: bool = True):
-        self.span, self.root_relative = span, root_relative
+    def __init__(self, span: int, root_relative: bool = True, compat: bool = False, hips: list[str] | None = None):
+        self.span, self.root_relative, self.compat, self.hips = span, root_relative, compat, hips
         self.value = "FPD" if span == 1 else "FMD"
 
-    def _samples(self, clips: Sequence[JointClip]) -> np.ndarray:
-        rows = []
-        for clip in clips:
-            require_frames(clip, self.span, self.value)
-            f = pose_frames(clip, self.root_relative)
-            n = len(f) - self.span + 1
-            rows.append(np.concatenate([f[k : k + n] for k in range(self.span)], axis=1))
-        return np.concatenate(rows)
-
     def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
-        """Frames pooled over each set (no normalization, as in the paper)."""
+        """Windows pooled over each set (no normalization, as in the paper)."""
         require_clips(generated, 1, self.value)
         require_clips(reference, 1, self.value, "reference")
         same_joint_count(generated, reference, self.value)
         rates = {c.fps for c in [*generated, *reference]}
         if len(rates) > 1:
             raise DataError(f"{self.value}: clips at different frame rates {sorted(rates)}; resample to one fps")
-        return MetricResult({self.value: set_distance(self._samples(generated), self._samples(reference), self.value)})
+        rows, notes = pose_windows(
+            [*generated, *reference],
+            self.span,
+            self.value,
+            heading_free=not self.compat,
+            hips=self.hips,
+            root_relative=self.root_relative,
+        )
+        gen, ref = np.concatenate(rows[: len(generated)]), np.concatenate(rows[len(generated) :])
+        return MetricResult({self.value: set_distance(gen, ref, self.value)}, notes=notes)
 
 
 def hips_index(clip: JointClip, hips: str | None) -> int:
@@ -345,12 +386,12 @@ def build_freezing(config: Any, **_: Any) -> Freezing:
 
 def build_fpd(config: Any, **_: Any) -> FrechetPose:
     """``fpd``."""
-    return FrechetPose(1, config.root_relative)
+    return FrechetPose(1, config.root_relative, config.compat, config.hips)
 
 
 def build_fmd(config: Any, **_: Any) -> FrechetPose:
     """``fmd``."""
-    return FrechetPose(3, config.root_relative)
+    return FrechetPose(3, config.root_relative, config.compat, config.hips)
 
 
 def build_beat_offset(config: Any, **_: Any) -> BeatOffset:

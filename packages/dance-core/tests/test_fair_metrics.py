@@ -1,0 +1,117 @@
+"""Heading- and position-free FPD/FMD: a turned and moved copy of a dance scores the same, a frozen pose
+far worse; the world-oriented variant stays under compat."""
+
+import numpy as np
+import pytest
+
+from dance_core.evaluation.canon import canonical_windows
+from dance_core.evaluation.metrics import FrechetPose, pose_windows
+from dance_core.evaluation.report import build_metric, evaluate
+from dance_core.motion.skeletons import SMPL_REST
+from dance_core.protocols import JointClip
+from dance_core.registry import get_registry
+from dance_core.testing import check_metric
+
+FPS = 30.0
+BPM = 120.0
+
+
+def turned(p: np.ndarray, yaw, shift) -> np.ndarray:
+    """Positions ``(T, J, 3)`` turned about Y by ``yaw`` and moved by ``shift`` (x, z) on the floor;
+    ``yaw`` and the shifts may be per-frame arrays."""
+    c, s = np.asarray(np.cos(yaw))[..., None], np.asarray(np.sin(yaw))[..., None]
+    out = p.copy()
+    out[..., 0] = c * p[..., 0] + s * p[..., 2] + np.asarray(shift[0])[..., None]
+    out[..., 2] = -s * p[..., 0] + c * p[..., 2] + np.asarray(shift[1])[..., None]
+    return out
+
+
+def dancer(seed: int, seconds: float = 8.0) -> JointClip:
+    """An SMPL-24 dancer of one style: limbs swinging every two beats, a bounce lowest on the beat,
+    turning back and forth while travelling (Y up, metres, 120 BPM beats)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * FPS)) / FPS
+    f = BPM / 60.0
+    rest = SMPL_REST - SMPL_REST[:, 1].min()
+    style = np.random.default_rng(0)  # one style: every dancer swings the same limbs, by its own amount
+    amp = style.normal(0, 0.08, size=(24, 3)) * rng.uniform(0.7, 1.3)
+    phase = style.uniform(0, 2 * np.pi, size=(24, 3)) + rng.normal(0, 0.3, size=(24, 3))
+    body = rest[None] + amp[None] * np.sin(np.pi * f * t[:, None, None] + phase[None])
+    body[:, :, 1] += 0.05 * np.cos(2 * np.pi * f * t)[:, None]
+    body[..., [0, 2]] -= body[:, :1, [0, 2]]
+    yaw = 0.8 * np.sin(2 * np.pi * 0.2 * t + seed)
+    path = (0.3 * np.sin(2 * np.pi * 0.1 * t + seed), 0.3 * np.cos(2 * np.pi * 0.13 * t))
+    return JointClip(f"d{seed}", turned(body, yaw, path), FPS, music_beats=np.arange(0, seconds, 1 / f))
+
+
+def moved(clip: JointClip, positions: np.ndarray, name: str | None = None) -> JointClip:
+    """The clip with other positions (and optionally another name)."""
+    return JointClip(name or clip.name, positions, clip.fps, clip.joints, clip.music_beats)
+
+
+@pytest.fixture(scope="module")
+def sets():
+    reference = [dancer(s) for s in range(6)]
+    generated = [dancer(s) for s in range(6, 10)]
+    rng = np.random.default_rng(1)
+    rotated = [moved(c, turned(c.positions, rng.uniform(-np.pi, np.pi), rng.uniform(-5, 5, 2))) for c in generated]
+    frozen = [moved(c, np.repeat(c.positions[:1], len(c.positions), axis=0)) for c in generated]
+    return reference, generated, rotated, frozen
+
+
+# --- FPD / FMD --------------------------------------------------------------------------------
+
+
+def test_windows_are_in_the_body_frame_of_their_middle_frame(sets):
+    _, (clip, *_), (turned_clip, *_), _ = sets
+    w = canonical_windows(clip.positions, 3, 1, 2)
+    assert w.shape == (len(clip.positions) - 2, 3, 24, 3)
+    assert w[:, 1, 0, [0, 2]] == pytest.approx(np.zeros((len(w), 2)), abs=1e-12)  # root over the origin
+    np.testing.assert_allclose(canonical_windows(turned_clip.positions, 3, 1, 2), w, atol=1e-9)
+    # the window's own turning stays in: the first and last frames are not facing +Z
+    assert np.abs(w[:, 0, 1, 2] - w[:, 0, 2, 2]).max() > 1e-3
+    rows, notes = pose_windows([clip, turned_clip], 3, "FMD")
+    assert not notes and rows[0].shape == (len(w), 3 * 24 * 3)
+    np.testing.assert_allclose(rows[1], rows[0], atol=1e-9)
+
+
+def test_a_turned_and_moved_copy_scores_the_same_fpd_and_fmd_and_a_frozen_pose_far_worse(sets):
+    reference, generated, rotated, frozen = sets
+    for span in (1, 3):
+        metric = FrechetPose(span)
+        danced, turned_copy, still = (metric(s, reference).values[metric.value] for s in (generated, rotated, frozen))
+        assert turned_copy == pytest.approx(danced, rel=1e-5)
+        assert still > 20 * danced
+    # FMD: danced 0.091, turned and moved 0.091, frozen first pose 5.39
+
+
+def test_the_compat_variant_reproduces_the_world_oriented_numbers(sets):
+    reference, generated, rotated, frozen = sets
+    fpd, fmd = FrechetPose(1, compat=True), FrechetPose(3, compat=True)
+    # the values of the earlier definition (world orientation, root's horizontal position removed)
+    assert fpd(generated, reference).values["FPD"] == pytest.approx(0.023359578806076087, rel=1e-6)
+    assert fmd(generated, reference).values["FMD"] == pytest.approx(0.0719824809865397, rel=1e-6)
+    # ... under which a frozen first pose beats the same dances facing elsewhere (2.71 vs 14.2)
+    assert fmd(frozen, reference).values["FMD"] < fmd(rotated, reference).values["FMD"]
+    # dance evaluate --compat reaches it through the registry
+    registry = get_registry()
+    assert build_metric("fmd", registry, compat=True).compat and not build_metric("fmd", registry).compat
+    report = evaluate(generated, reference, ["fmd"], compat=True, registry=registry)
+    assert report.values()["FMD"] == pytest.approx(0.0719824809865397, rel=1e-6)
+
+
+def test_a_skeleton_without_hips_falls_back_to_world_orientation_with_a_note():
+    clips = [JointClip(f"s{k}", np.random.default_rng(k).normal(size=(20, 6, 3)), FPS) for k in range(2)]
+    result = FrechetPose(3)(clips, clips)
+    assert result.values["FMD"] == pytest.approx(0.0, abs=1e-9)
+    assert "not heading-free" in result.notes[0] and "6 joints" in result.notes[0]
+
+
+def test_the_new_metrics_pass_the_authors_check_and_run_in_dance_evaluate(sets):
+    for name in ("fpd", "fmd"):
+        check_metric(name)
+    reference, generated, _, _ = sets
+    samples = [moved(c, c.positions, f"song-{k}") for k, c in enumerate(generated)]
+    report = evaluate(samples, reference, ["fpd", "fmd"])
+    assert not report.skipped
+    assert {"FPD", "FMD"} <= set(report.values())
