@@ -1,11 +1,11 @@
-"""Heading- and position-free FPD/FMD: a turned and moved copy of a dance scores the same, a frozen pose
-far worse; the world-oriented variant stays under compat."""
+"""Metrics that measure what the papers meant: heading-free FPD/FMD and freezing relative to the
+reference's speed."""
 
 import numpy as np
 import pytest
 
 from dance_core.evaluation.canon import canonical_windows
-from dance_core.evaluation.metrics import FrechetPose, pose_windows
+from dance_core.evaluation.metrics import FrechetPose, Freezing, pose_windows
 from dance_core.evaluation.report import build_metric, evaluate
 from dance_core.motion.skeletons import SMPL_REST
 from dance_core.protocols import JointClip
@@ -107,11 +107,36 @@ def test_a_skeleton_without_hips_falls_back_to_world_orientation_with_a_note():
     assert "not heading-free" in result.notes[0] and "6 joints" in result.notes[0]
 
 
+# --- freezing ---------------------------------------------------------------------------------
+
+
+def test_a_held_pose_is_frozen_relative_to_the_reference_and_a_slow_groove_is_not(sets):
+    reference, (clip, *_), _, _ = sets
+    p = clip.positions
+    t = np.arange(len(p)) / FPS
+    sway = p[:1] + 0.01 * np.sin(np.pi * t)[:, None, None] * np.array([1.0, 0.0, 0.0])  # 1 cm, 0.5 Hz
+    cases = {
+        "held": moved(clip, sway, "held"),  # a held pose that breathes: peak speed 3 cm/s
+        "still": moved(clip, np.repeat(p[:1], len(p), axis=0), "still"),
+        "slow": moved(clip, p[:1] + 0.3 * (p - p[:1]), "slow"),  # the dance at 30 % of its amplitude
+        "danced": moved(clip, p, "danced"),
+    }
+    result = Freezing()(list(cases.values()), reference)
+    pff = {name: (v["PFF"], v["PFF_rel"]) for name, v in result.per_clip.items()}
+    # (TM2D's absolute PFF, PFF relative to the reference's speed), %
+    assert pff == {"held": (0.0, 100.0), "still": (100.0, 100.0), "slow": (0.0, 0.0), "danced": (0.0, 0.0)}
+    assert result.values["PFF"] == pytest.approx(25.0) and result.values["PFF_rel"] == pytest.approx(50.0)
+    # 0.1 x the reference's median largest joint speed (1.48 m/s)
+    assert 0.1 < result.values["PFF_rel_threshold"] < 0.2
+    alone = Freezing()([cases["held"]])
+    assert "PFF_rel" not in alone.values and "no reference set" in alone.notes[0]
+
+
 def test_the_new_metrics_pass_the_authors_check_and_run_in_dance_evaluate(sets):
-    for name in ("fpd", "fmd"):
+    for name in ("fpd", "fmd", "freezing"):
         check_metric(name)
     reference, generated, _, _ = sets
     samples = [moved(c, c.positions, f"song-{k}") for k, c in enumerate(generated)]
-    report = evaluate(samples, reference, ["fpd", "fmd"])
+    report = evaluate(samples, reference, ["freezing", "fpd"])
     assert not report.skipped
-    assert {"FPD", "FMD"} <= set(report.values())
+    assert {"PFF_rel", "FPD"} <= set(report.values())

@@ -18,7 +18,7 @@ def register_metrics(register):
         ("div-g", e.FeatureMetricConfig, "build_div_g", "Div_g: mean pairwise distance of geometric features"),
         ("bas-bailando", e.BailandoBASConfig, "build_bas_bailando", "Bailando's Beat Align Score (over music beats)"),
         ("bas-fact", e.FactBASConfig, "build_bas_fact", "FACT's beat alignment score (over motion beats)"),
-        ("freezing", e.FreezingConfig, "build_freezing", "TM2D's PFF and AUC_f (frozen frames)"),
+        ("freezing", e.FreezingConfig, "build_freezing", "TM2D's PFF and AUC_f, and PFF relative to the reference"),
         ("fpd", e.FrechetPoseConfig, "build_fpd", "Transflower's Fréchet pose distance (heading-free)"),
         ("fmd", e.FrechetPoseConfig, "build_fmd", "Transflower's Fréchet movement distance (3 frames, heading-free)"),
         ("beat-offset", e.BeatOffsetConfig, "build_beat_offset", "Transflower's music-to-hips-beat offsets (s)"),

@@ -28,12 +28,14 @@ class FactBASConfig(ComponentConfig):
 
 
 class FreezingConfig(ComponentConfig):
-    """TM2D's freezing threshold (m/s) and minimum duration (s); AUC_f threshold range and steps."""
+    """TM2D's freezing threshold (m/s) and minimum duration (s); AUC_f threshold range and steps;
+    ``relative``: PFF_rel's threshold as a fraction of the reference's median largest joint speed."""
 
     threshold: PositiveFloat = 0.015
     min_seconds: PositiveFloat = 3.0
     auc_max: PositiveFloat = 0.03
     auc_steps: PositiveInt = Field(31, ge=2)
+    relative: float = Field(0.1, gt=0.0, le=1.0)
 
 
 class FrechetPoseConfig(ComponentConfig):

@@ -155,18 +155,44 @@ class FactBAS:
 
 
 class Freezing:
-    """TM2D's PFF (% frozen frames, pooled over the set) and AUC_f (mean PFF over thresholds)."""
+    """TM2D's PFF and AUC_f (absolute threshold), and PFF_rel (threshold relative to the reference's speed).
+
+    PFF: % of frames (pooled over the set) in runs of at least ``min_seconds`` whose largest joint
+    speed is at most ``threshold`` m/s; AUC_f: mean PFF over thresholds 0 .. ``auc_max``. PFF_rel:
+    the same with the threshold ``relative`` times the reference set's median per-frame largest
+    joint speed (``PFF_rel_threshold``, m/s), reported only with a reference set.
+    """
 
     needs: tuple[str, ...] = ()
 
-    def __init__(self, threshold: float = 0.015, min_seconds: float = 3.0, auc_max: float = 0.03, auc_steps: int = 31):
-        self.threshold, self.min_seconds = threshold, min_seconds
+    def __init__(
+        self,
+        threshold: float = 0.015,
+        min_seconds: float = 3.0,
+        auc_max: float = 0.03,
+        auc_steps: int = 31,
+        relative: float = 0.1,
+    ):
+        self.threshold, self.min_seconds, self.relative = threshold, min_seconds, relative
         self.thresholds = np.linspace(0.0, auc_max, auc_steps)
 
+    def relative_threshold(self, reference: Sequence[JointClip]) -> float:
+        """``relative`` times the median over every reference frame of its largest joint speed (m/s)."""
+        speeds = [max_joint_speed(p, c.fps) for c in reference if len(p := check_positions(c)) >= 2]
+        if not speeds:
+            raise DataError("PFF_rel: every reference clip has fewer than 2 frames")
+        return self.relative * float(np.median(np.concatenate(speeds)))
+
     def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
-        """Frame-weighted PFF and AUC_f over clips at least ``min_seconds`` long."""
+        """Frame-weighted PFF, AUC_f (and PFF_rel) over clips at least ``min_seconds`` long."""
         require_clips(generated, 1, "PFF")
-        per_clip, notes, frames, frozen, curves = {}, [], 0, 0.0, []
+        per_clip, notes, frames, curves = {}, [], 0, []
+        at = {"PFF": self.threshold}
+        if reference:
+            at["PFF_rel"] = self.relative_threshold(reference)
+        else:
+            notes.append("PFF_rel: no reference set (its threshold is relative to the reference's speed); not computed")
+        frozen = dict.fromkeys(at, 0.0)
         for clip in generated:
             p = check_positions(clip)
             if len(p) < 2 or clip.duration < self.min_seconds:
@@ -176,17 +202,21 @@ class Freezing:
                 )
                 continue
             speed = max_joint_speed(p, clip.fps)
-            pff = pff_curve(speed, clip.fps, np.array([self.threshold]), self.min_seconds)[0]
             curve = pff_curve(speed, clip.fps, self.thresholds, self.min_seconds)
-            per_clip[clip.name] = {"PFF": float(pff), "AUC_f": auc(self.thresholds, curve)}
+            pff = pff_curve(speed, clip.fps, np.array(list(at.values())), self.min_seconds)
+            per_clip[clip.name] = {"AUC_f": auc(self.thresholds, curve)}
+            for key, value in zip(at, pff, strict=True):
+                per_clip[clip.name][key] = float(value)
+                frozen[key] += value / 100.0 * len(p)
             frames += len(p)
-            frozen += pff / 100.0 * len(p)
             curves.append(curve * len(p))
         if not per_clip:
             names = ", ".join(c.name for c in generated)
             raise DataError(f"PFF: every clip is shorter than the {self.min_seconds:g} s a freeze must last ({names})")
         pooled = np.sum(curves, axis=0) / frames
-        values = {"PFF": 100.0 * frozen / frames, "AUC_f": auc(self.thresholds, pooled)}
+        values = {"PFF": 100.0 * frozen["PFF"] / frames, "AUC_f": auc(self.thresholds, pooled)}
+        if "PFF_rel" in at:
+            values.update(PFF_rel=100.0 * frozen["PFF_rel"] / frames, PFF_rel_threshold=at["PFF_rel"])
         return MetricResult(values, per_clip, notes)
 
 
@@ -381,7 +411,7 @@ def build_bas_fact(config: Any, **_: Any) -> FactBAS:
 
 def build_freezing(config: Any, **_: Any) -> Freezing:
     """``freezing``."""
-    return Freezing(config.threshold, config.min_seconds, config.auc_max, config.auc_steps)
+    return Freezing(config.threshold, config.min_seconds, config.auc_max, config.auc_steps, config.relative)
 
 
 def build_fpd(config: Any, **_: Any) -> FrechetPose:
