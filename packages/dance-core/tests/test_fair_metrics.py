@@ -1,11 +1,12 @@
-"""Metrics that measure what the papers meant: heading-free FPD/FMD and freezing relative to the
-reference's speed."""
+"""Metrics that measure what the papers meant: heading-free FPD/FMD, freezing relative to the reference's
+speed, and beat phase locking."""
 
 import numpy as np
 import pytest
+from scipy.ndimage import gaussian_filter1d
 
 from dance_core.evaluation.canon import canonical_windows
-from dance_core.evaluation.metrics import FrechetPose, Freezing, pose_windows
+from dance_core.evaluation.metrics import BeatLocking, BeatOffset, FrechetPose, Freezing, pose_windows
 from dance_core.evaluation.report import build_metric, evaluate
 from dance_core.motion.skeletons import SMPL_REST
 from dance_core.protocols import JointClip
@@ -132,11 +133,52 @@ def test_a_held_pose_is_frozen_relative_to_the_reference_and_a_slow_groove_is_no
     assert "PFF_rel" not in alone.values and "no reference set" in alone.notes[0]
 
 
+# --- beat locking -----------------------------------------------------------------------------
+
+
+def bouncing(seed: int, phase: float, seconds: float = 16.0) -> JointClip:
+    """The dancer with its bounce lowest at ``phase`` (fraction of a beat) after every beat."""
+    c = dancer(seed, seconds)
+    t = np.arange(len(c.positions)) / FPS
+    p = c.positions.copy()
+    p[:, :, 1] += 0.05 * (np.cos(2 * np.pi * (BPM / 60 * t - phase)) - np.cos(2 * np.pi * BPM / 60 * t))[:, None]
+    return moved(c, p)
+
+
+def random_mover(seed: int, seconds: float = 16.0) -> JointClip:
+    """A body whose joints and height wander smoothly at random, unrelated to the beat."""
+    c = dancer(seed, seconds)
+    rng = np.random.default_rng(100 + seed)
+    n = len(c.positions)
+    p = c.positions[:1] + gaussian_filter1d(rng.normal(0, 0.3, (n, 24, 3)), 3, axis=0)
+    p[:, :, 1] += gaussian_filter1d(rng.normal(0, 0.2, n), 3)[:, None]
+    return moved(c, p)
+
+
+def test_beat_locking_is_high_at_any_constant_phase_and_low_for_random_beats():
+    offsets = []
+    for phase in (0.0, 0.25, 0.5, 0.8):
+        clips = [bouncing(s, phase) for s in range(3)]
+        result = BeatLocking()(clips)
+        assert result.values["beat_locking"] > 0.95, phase
+        assert result.values["beat_locking_control"] < 0.2, phase  # not locked to a wrong tempo
+        offsets.append(BeatOffset()(clips).values["beat_offset_mean"])
+    assert max(offsets) - min(offsets) > 0.1  # the offset column depends on the phase (0.05 to 0.25 s)
+    random = BeatLocking()([random_mover(s) for s in range(3)])
+    assert random.values["beat_locking"] < 0.3  # 0.16
+    assert set(random.per_clip["d0"]) == {
+        "beat_locking",
+        "beat_locking_control",
+        "beat_locking_speed",
+        "beat_locking_hips",
+    }
+
+
 def test_the_new_metrics_pass_the_authors_check_and_run_in_dance_evaluate(sets):
-    for name in ("fpd", "fmd", "freezing"):
+    for name in ("fpd", "fmd", "freezing", "beat-locking"):
         check_metric(name)
     reference, generated, _, _ = sets
     samples = [moved(c, c.positions, f"song-{k}") for k, c in enumerate(generated)]
-    report = evaluate(samples, reference, ["freezing", "fpd"])
+    report = evaluate(samples, reference, ["freezing", "beat-locking", "fpd"])
     assert not report.skipped
-    assert {"PFF_rel", "FPD"} <= set(report.values())
+    assert {"PFF_rel", "beat_locking", "FPD"} <= set(report.values())

@@ -22,6 +22,7 @@ def register_metrics(register):
         ("fpd", e.FrechetPoseConfig, "build_fpd", "Transflower's Fréchet pose distance (heading-free)"),
         ("fmd", e.FrechetPoseConfig, "build_fmd", "Transflower's Fréchet movement distance (3 frames, heading-free)"),
         ("beat-offset", e.BeatOffsetConfig, "build_beat_offset", "Transflower's music-to-hips-beat offsets (s)"),
+        ("beat-locking", e.BeatLockingConfig, "build_beat_locking", "Phase locking of kinematic to music beats"),
         ("beat-coverage", e.BeatCoverageConfig, "build_beat_coverage", "DanceRevolution's beat coverage and hit rate"),
         ("pfc", e.PFCConfig, "build_pfc", "EDGE's physical foot contact score"),
     ):

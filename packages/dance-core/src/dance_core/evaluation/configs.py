@@ -55,6 +55,13 @@ class BeatOffsetConfig(ComponentConfig):
     smooth_seconds: float = Field(0.0, ge=0.0)
 
 
+class BeatLockingConfig(ComponentConfig):
+    """The hips joint (name; default the root joint) and the wrong-tempo control grid's tempo factor."""
+
+    hips: str | None = None
+    control_tempo: float = Field(1.13, gt=0.0)
+
+
 class BeatCoverageConfig(ComponentConfig):
     """Tolerance (s) for a kinematic beat to hit a music beat; speed smoothing of the detector (s)."""
 

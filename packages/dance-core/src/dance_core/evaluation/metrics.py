@@ -16,6 +16,7 @@ from dance_core.evaluation.frechet import average_pairwise_distance, normalize, 
 from dance_core.evaluation.freezing import auc, max_joint_speed, pff_curve
 from dance_core.evaluation.geometric import geometric_features
 from dance_core.evaluation.kinetic import kinetic_features
+from dance_core.evaluation.quality import CONTROL_TEMPO, beat_locking
 from dance_core.protocols import JointClip, MetricResult
 
 FEATURE_KINDS: dict[str, tuple[str, Callable[[JointClip, bool], np.ndarray]]] = {
@@ -333,6 +334,45 @@ class BeatOffset:
         return MetricResult({"beat_offset_mean": float(d.mean()), "beat_offset_sd": float(d.std())}, per_clip, notes)
 
 
+class BeatLocking:
+    """Phase locking of kinematic beats to the music beats, whatever the phase (mean over clips).
+
+    Per clip :func:`dance_core.evaluation.quality.beat_locking`: the length of the circular mean of
+    where the kinematic beats fall inside their music beat interval (1: always the same phase, on
+    the beat or not; about ``1 / sqrt(n)`` for ``n`` beats at random), the better of two detectors
+    (joint-speed minima, hips-height minima), and the same against a grid ``control_tempo`` times
+    faster (a dance locked to the music scores low there).
+    """
+
+    needs = ("music",)
+
+    def __init__(self, hips: str | None = None, control_tempo: float = CONTROL_TEMPO):
+        self.hips, self.control_tempo = hips, control_tempo
+
+    def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
+        """``beat_locking`` and ``beat_locking_control``: means over clips with kinematic beats between music beats."""
+        usable, notes = with_music(generated, "beat locking")
+        per_clip = {}
+        for clip, p, music in usable:
+            s = beat_locking(p, clip.fps, music, hips_index(clip, self.hips), self.control_tempo)
+            if not np.isfinite(s["locking"]):
+                notes.append(f"beat locking: {clip.name}: no kinematic beat between two music beats; skipped")
+                continue
+            per_clip[clip.name] = {
+                "beat_locking": s["locking"],
+                "beat_locking_control": s["control"],
+                "beat_locking_speed": s["locking_speed"],
+                "beat_locking_hips": s["locking_hips"],
+            }
+        if not per_clip:
+            reasons = "; ".join(n.removeprefix("beat locking: ") for n in notes)
+            raise DataError(f"beat locking: no clip has kinematic beats between music beats ({reasons})")
+        values = {
+            k: float(np.nanmean([v[k] for v in per_clip.values()])) for k in ("beat_locking", "beat_locking_control")
+        }
+        return MetricResult(values, per_clip, notes)
+
+
 class BeatCoverage:
     """DanceRevolution's beat coverage and hit rate (%), totals pooled over the set."""
 
@@ -427,6 +467,11 @@ def build_fmd(config: Any, **_: Any) -> FrechetPose:
 def build_beat_offset(config: Any, **_: Any) -> BeatOffset:
     """``beat-offset``."""
     return BeatOffset(config.hips, config.smooth_seconds)
+
+
+def build_beat_locking(config: Any, **_: Any) -> BeatLocking:
+    """``beat-locking``."""
+    return BeatLocking(config.hips, config.control_tempo)
 
 
 def build_beat_coverage(config: Any, **_: Any) -> BeatCoverage:
