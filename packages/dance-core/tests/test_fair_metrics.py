@@ -1,11 +1,12 @@
 """Metrics that measure what the papers meant: heading-free FPD/FMD, freezing relative to the reference's
-speed, and beat phase locking."""
+speed, beat phase locking, and diversity across samples of one song."""
 
 import numpy as np
 import pytest
 from scipy.ndimage import gaussian_filter1d
 
 from dance_core.evaluation.canon import canonical_windows
+from dance_core.evaluation.diversity import SampleDiversity, songs_of
 from dance_core.evaluation.metrics import BeatLocking, BeatOffset, FrechetPose, Freezing, pose_windows
 from dance_core.evaluation.report import build_metric, evaluate
 from dance_core.motion.skeletons import SMPL_REST
@@ -174,11 +175,33 @@ def test_beat_locking_is_high_at_any_constant_phase_and_low_for_random_beats():
     }
 
 
+# --- sample diversity -------------------------------------------------------------------------
+
+
+def test_samples_of_one_song_identical_score_zero_and_different_dances_more(sets):
+    reference, generated, rotated, _ = sets
+    a, b = generated[:2]
+    same = [moved(a, a.positions, "s0-0"), moved(rotated[0], rotated[0].positions, "s0-1")]
+    same += [moved(b, b.positions, "s1-0"), moved(b, b.positions, "s1-1")]
+    assert songs_of(same) == {"s0": [0, 1], "s1": [2, 3]}
+    result = SampleDiversity()(same, reference)
+    assert result.values["Div_sample_pose"] == pytest.approx(0.0, abs=1e-6)  # m
+    assert result.values["Div_sample_k"] == pytest.approx(0.0, abs=1e-6)
+    assert result.values["sample_songs"] == 2.0 and not result.notes
+    different = [moved(c, c.positions, f"s{k // 2}-{k % 2}") for k, c in enumerate([*generated, reference[0]])]
+    result = SampleDiversity()(different, reference)
+    assert result.values["Div_sample_pose"] > 0.01 and result.values["Div_sample_k"] > 0.1
+    assert result.values["sample_songs"] == 2.0 and "single sample" in result.notes[0]
+    # names without samples: compared as one song, and said so
+    alone = SampleDiversity()(generated)
+    assert alone.values["sample_songs"] == 0.0 and "no song has two samples" in alone.notes[0]
+
+
 def test_the_new_metrics_pass_the_authors_check_and_run_in_dance_evaluate(sets):
-    for name in ("fpd", "fmd", "freezing", "beat-locking"):
+    for name in ("fpd", "fmd", "freezing", "beat-locking", "sample-diversity"):
         check_metric(name)
     reference, generated, _, _ = sets
     samples = [moved(c, c.positions, f"song-{k}") for k, c in enumerate(generated)]
-    report = evaluate(samples, reference, ["freezing", "beat-locking", "fpd"])
+    report = evaluate(samples, reference, ["freezing", "beat-locking", "sample-diversity", "fpd"])
     assert not report.skipped
-    assert {"PFF_rel", "beat_locking", "FPD"} <= set(report.values())
+    assert {"PFF_rel", "beat_locking", "Div_sample_pose", "FPD"} <= set(report.values())

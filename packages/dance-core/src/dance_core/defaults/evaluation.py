@@ -28,6 +28,12 @@ def register_metrics(register):
     ):
         register(name, config, f"{_M}:{build}", text)
     register(
+        "sample-diversity",
+        e.SampleDiversityConfig,
+        "dance_core.evaluation.diversity:build_sample_diversity",
+        "Mean pairwise distance between generated samples of the same song (SONG-k)",
+    )
+    register(
         "mpd",
         e.MPDConfig,
         "dance_core.evaluation.mpd:build_mpd",

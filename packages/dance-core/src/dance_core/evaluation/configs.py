@@ -69,6 +69,12 @@ class BeatCoverageConfig(ComponentConfig):
     smooth_seconds: float = Field(5 / 60, ge=0.0)
 
 
+class SampleDiversityConfig(ComponentConfig):
+    """Left and right hip joint names for the body frame (default: SMPL-24 or known names)."""
+
+    hips: list[str] | None = Field(None, min_length=2, max_length=2)
+
+
 class PFCConfig(ComponentConfig):
     """Left ankle, left toe, right ankle, right toe joint names (default: SMPL-24 or known names)."""
 

@@ -68,15 +68,20 @@ class FeatureDiversity:
     def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
         """Normalize with the reference's statistics (or the generated set's own, with a note)."""
         require_clips(generated, 2, self.value)
-        gen = feature_matrix(generated, self.kind, self.compat)
-        notes = []
-        if reference:
-            same_joint_count(generated, reference, self.value)
-            _, gen = normalize(feature_matrix(reference, self.kind, self.compat), gen, compat=self.compat)
-        else:
-            gen = normalize(gen, compat=self.compat)[0]
-            notes.append(f"{self.value}: no reference set; features normalized by the generated set")
+        gen, notes = normalized_features(generated, reference, self.kind, self.compat, self.value)
         return MetricResult({self.value: average_pairwise_distance(gen, self.value)}, notes=notes)
+
+
+def normalized_features(
+    generated: Sequence[JointClip], reference: Sequence[JointClip] | None, kind: str, compat: bool, what: str
+) -> tuple[np.ndarray, list[str]]:
+    """The generated set's features normalized with the reference's statistics, else its own (with a note)."""
+    gen = feature_matrix(generated, kind, compat)
+    if reference:
+        same_joint_count(generated, reference, what)
+        return normalize(feature_matrix(reference, kind, compat), gen, compat=compat)[1], []
+    note = f"{what}: no reference set; features normalized by the generated set"
+    return normalize(gen, compat=compat)[0], [note]
 
 
 def with_music(
