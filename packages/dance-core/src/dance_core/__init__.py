@@ -41,6 +41,11 @@ _LAZY: dict[str, str] = {
     # helpers plugins need: audio in, files out
     **dict.fromkeys(("load_audio", "check_audio_path"), "dance_core.data.features"),
     **dict.fromkeys(("atomic_path", "write_bytes", "write_text"), "dance_core.atomic"),
+    # command-line checks for plugin commands (register_commands): ranges while parsing, paths before work
+    **dict.fromkeys(
+        ("bounded_number", "check_input_file", "check_input_dir", "check_output_file", "check_output_dir"),
+        "dance_core.cli.checks",
+    ),
 }
 
 __all__ = [
@@ -72,6 +77,13 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # for type checkers and editors; at run time the names load lazily
     from dance_core.atomic import atomic_path, write_bytes, write_text  # noqa: F401
+    from dance_core.cli.checks import (  # noqa: F401
+        bounded_number,
+        check_input_dir,
+        check_input_file,
+        check_output_dir,
+        check_output_file,
+    )
     from dance_core.contexts import ConditionerContext, DatasetContext, EncoderContext, HeadContext  # noqa: F401
     from dance_core.data.features import check_audio_path, load_audio  # noqa: F401
     from dance_core.data.sources import ClipSource  # noqa: F401

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from argparse import Namespace
+from pathlib import Path
 
 
 def _recipe(args: Namespace, extra: list[str] = ()):
@@ -14,9 +16,7 @@ def _recipe(args: Namespace, extra: list[str] = ()):
 
 
 def compose(args: Namespace) -> int:
-    """``dance compose``."""
-    from dance_core.compose import compose as run
-
+    """``dance compose``: check every input and the output folder, compose, print the files and a summary."""
     extra = []
     for field, value in (
         ("samples", args.samples),
@@ -31,10 +31,86 @@ def compose(args: Namespace) -> int:
     if args.texts:
         extra.append(f"compose.texts={json.dumps([_text(t).model_dump() for t in args.texts])}")
     recipe = _recipe(args, extra)
-    written = run(recipe, music=args.music, checkpoint=args.checkpoint, out_dir=args.out, quiet=args.quiet)
+    songs, checkpoint = _compose_inputs(args, recipe)
+
+    from dance_core.compose import compose as run
+
+    start = time.perf_counter()
+    written = run(recipe, music=songs, checkpoint=checkpoint, out_dir=args.out, quiet=args.quiet)
+    wall = time.perf_counter() - start
+    summary = _compose_summary(recipe, songs, written, wall)
+    if args.json:
+        print(json.dumps(summary, indent=2))
+        return 0
     for path in written:
         print(path)
+    if not args.quiet:
+        seconds = "?" if summary["seconds"] is None else f"{summary['seconds']:.1f}"
+        rate = "" if summary["frames_per_second"] is None else f", {summary['frames_per_second']:.0f} frames/s"
+        print(f"composed {len(summary['songs'])} song(s) x {summary['samples']}: {seconds} s of dance, "
+              f"{len(written)} file(s) in {summary['out']}{rate}", file=sys.stderr)
     return 0
+
+
+def _compose_inputs(args: Namespace, recipe) -> tuple[list[str] | None, str | None]:
+    """The songs and checkpoint compose will read, and the folder it will write, checked before any work."""
+    from dance_core.cli.checks import check_input_file, check_output_dir, warn
+
+    c = recipe.compose
+    where = "--music" if args.music else "compose.music"
+    for song in args.music or [recipe.resolve_path(m) for m in c.music]:
+        check_input_file(song, where, "audio file")
+    checkpoint = args.checkpoint or (recipe.resolve_path(c.checkpoint) if c.checkpoint else None)
+    if checkpoint is not None:
+        option = "--checkpoint" if args.checkpoint else "compose.checkpoint"
+        check_input_file(checkpoint, option, "checkpoint", in_folder="model.safetensors")
+    if c.seed_motion not in (None, "rest"):  # as given, else beside the recipe (as compose reads it)
+        given, beside = c.seed_motion, recipe.resolve_path(c.seed_motion)
+        option = "--seed-motion" if args.seed_motion else "compose.seed_motion"
+        check_input_file(beside if not Path(given).exists() and Path(beside).exists() else given, option,
+                         "motion file")
+    check_output_dir(args.out or c.out_dir, "-o" if args.out else "compose.out_dir")
+    if c.temperature > TEMPERATURE_WARN:
+        option = "--temperature" if args.temperature is not None else "compose.temperature"
+        warn(f"{option} {c.temperature:g} is far above 1: the dance will be chaotic (try 0.5 to 1.5)")
+    return args.music, checkpoint
+
+
+#: above this sampling temperature ``dance compose`` warns that the dance will be chaotic
+TEMPERATURE_WARN = 3.0
+
+
+def _compose_summary(recipe, songs: list[str] | None, written: list, wall: float) -> dict:
+    """Songs, seconds of dance (read back from each dance's first readable file: previews are write-only),
+    files written and frames composed per second of wall time."""
+    from dance_core.errors import DanceError
+    from dance_core.registry import get_registry
+
+    registry = get_registry()
+    frames, seconds = 0, 0.0
+    counted: set[str] = set()
+    for path in map(Path, written):
+        stem = str(path.with_suffix(""))
+        entry = registry.for_suffix("motion-format", path.suffix)  # readable formats only
+        if stem in counted or entry is None:
+            continue
+        try:
+            data = entry.build().read(str(path))
+        except (DanceError, OSError, ValueError):  # the files are written: a summary never fails the command
+            continue
+        counted.add(stem)
+        frames += len(data.values)
+        seconds += len(data.values) / data.fps
+    return {
+        "songs": [str(s) for s in songs or [recipe.resolve_path(m) for m in recipe.compose.music]],
+        "samples": recipe.compose.samples,
+        "seconds": round(seconds, 3) if counted else None,
+        "frames": frames if counted else None,
+        "files": [str(p) for p in written],
+        "out": str(Path(written[0]).parent) if written else None,
+        "wall_seconds": round(wall, 3),
+        "frames_per_second": round(frames / wall, 1) if counted and wall > 0 else None,
+    }
 
 
 def _text(given: str):
@@ -52,10 +128,24 @@ def _text(given: str):
 
 
 def train(args: Namespace) -> int:
-    """``dance train``."""
+    """``dance train``: check ``--stop-at`` and the run folder, then train."""
+    from dance_core.cli.checks import check_output_dir
+    from dance_core.errors import DanceError
+    from dance_core.train import run_dir_for
     from dance_core.train import train as run
 
-    result = run(_recipe(args), out=args.out, resume=args.resume, quiet=args.quiet, stop_at=args.stop_at)
+    recipe = _recipe(args)
+    stages = recipe.training.stage_list()
+    total = sum(s.steps for s in stages)
+    if args.stop_at is not None and args.stop_at > total:
+        field = "training.stages" if recipe.training.stages else "training.steps"
+        raise DanceError(f"--stop-at {args.stop_at}: the run has {total} steps ({field}); give 1 to {total}")
+    run_dir = run_dir_for(recipe, args.out)
+    option = "-o" if args.out else "training.output"
+    check_output_dir(run_dir, option)
+    if args.resume and not run_dir.is_dir():
+        raise DanceError(f"--resume: {option} {run_dir}: run folder not found; nothing to resume")
+    result = run(recipe, out=args.out, resume=args.resume, quiet=args.quiet, stop_at=args.stop_at)
     val = f", validation loss {result.val_loss:.4f}" if result.val_loss is not None else ""
     print(f"trained {result.steps} steps: loss {result.first_loss:.4f} -> {result.last_loss:.4f}{val}")
     print(result.checkpoint)
@@ -129,6 +219,10 @@ def recipe_schema(args: Namespace) -> int:
     from dance_core.recipe.jsonschema import recipe_json_schema
     from dance_core.registry import get_registry
 
+    if args.out:
+        from dance_core.cli.checks import check_output_file
+
+        check_output_file(args.out, "-o")
     text = json.dumps(recipe_json_schema(get_registry()), indent=2) + "\n"
     if args.out:
         write_text(args.out, text)
@@ -138,33 +232,57 @@ def recipe_schema(args: Namespace) -> int:
 
 
 def recipe_list(args: Namespace) -> int:
-    """``dance recipe list``."""
+    """``dance recipe list``: name, distribution and description of each bundled recipe (``--json``: with paths)."""
     from dance_core.registry import get_registry
 
-    for e in get_registry().entries("recipe"):
+    entries = get_registry().entries("recipe")
+    if args.json:
+        data = [{"name": e.name, "distribution": e.distribution, "version": e.version,
+                 "description": e.description, "path": str(e.target)} for e in entries]
+        print(json.dumps(data, indent=2))
+        return 0
+    for e in entries:
         print(f"{e.name:24} {e.distribution:12} {e.description}")
     return 0
 
 
 def synth(args: Namespace) -> int:
-    """``dance synth``: a click track with beats every 60/bpm seconds (downbeat every 4th)."""
-    import numpy as np
-
-    from dance_core.components.synthetic import click_track
-    from dance_core.components.wav import write_wav
+    """``dance synth``: a click track with beats every 60/bpm seconds (downbeat every 4th), or a dataset."""
+    from dance_core.cli.checks import check_output_dir, check_output_file
     from dance_core.errors import DanceError
 
+    if args.out is not None and args.out_dir is not None:
+        raise DanceError(
+            f"synth: give either FILE.wav ({args.out}: a click track) or --out DIR ({args.out_dir}: a dataset), "
+            "not both"
+        )
     if args.music and args.out_dir is None:
         raise DanceError("synth: --music needs --out DIR (the folder to write the dances into)")
     if args.out_dir is not None:
+        if args.music:
+            for song in args.music:
+                if not Path(song).exists():
+                    raise DanceError(f"--music {song}: no such file or folder")
+        elif args.seconds is not None and args.seconds < 2.0:
+            raise DanceError(f"--seconds {args.seconds:g}: a dataset song needs at least 2 s")
+        check_output_dir(args.out_dir, "--out")
         from dance_core.data.synthetic_dance import synth_command
 
         return synth_command(args)
     if args.out is None:
         raise DanceError("synth: give a WAV file to write, or --out DIR for a synthetic dance dataset")
     seconds = 20.0 if args.seconds is None else args.seconds
-    if not (20 <= args.bpm <= 400) or not (0.5 <= seconds <= 3600) or args.rate < 4000:
-        raise DanceError("synth: need 20 <= --bpm <= 400, 0.5 <= --seconds <= 3600, --rate >= 4000")
+    if seconds < 0.5:
+        raise DanceError(f"--seconds {seconds:g}: a click track needs at least 0.5 s (the shortest song dance reads)")
+    if Path(args.out).suffix.lower() not in (".wav", ".wave") and not Path(args.out).is_dir():
+        raise DanceError(f"{args.out}: a click track is a .wav file; for a dataset folder use --out DIR")
+    check_output_file(args.out, None, suffixes=(".wav", ".wave"))
+
+    import numpy as np
+
+    from dance_core.components.synthetic import click_track
+    from dance_core.components.wav import write_wav
+
     beats = np.arange(0.0, seconds, 60.0 / args.bpm)
     audio = click_track(beats, seconds, args.rate, np.random.default_rng(args.seed))
     write_wav(args.out, audio, args.rate)

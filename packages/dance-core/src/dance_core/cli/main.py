@@ -3,19 +3,83 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
+import textwrap
 
 from dance_core.cli import commands
+from dance_core.cli.checks import bounded_number
 from dance_core.errors import DanceError
 from dance_core.plugins import DEFAULT_PLUGINS, ENV_STRICT
 
 
+class HelpFormatter(argparse.HelpFormatter):
+    """Wraps prose but keeps indented lines (examples, forms) as written; adds ``(default: X)`` where an
+    option has a real default."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        lines = []
+        for line in text.splitlines():
+            if line[:1].isspace() or not line:
+                lines.append(indent + line)
+            else:
+                lines.extend(textwrap.wrap(line, width, initial_indent=indent, subsequent_indent=indent))
+        return "\n".join(lines)
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        default = action.default
+        if (
+            default is None
+            or default is False
+            or default is argparse.SUPPRESS
+            or default in ([], ())
+            or "default" in text
+            or not (action.option_strings or action.nargs in ("?", "*"))
+        ):
+            return text
+        shown = " ".join(map(str, default)) if isinstance(default, (list, tuple)) else str(default)
+        return f"{text} (default: {shown.replace('%', '%%')})"
+
+
 class Parser(argparse.ArgumentParser):
-    """An argparse parser whose usage errors are one line on stderr, exit code 2."""
+    """An argparse parser whose usage errors are one line on stderr, exit code 2; help shows defaults."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
+        self.command_groups: list[argparse._SubParsersAction] = []
+
+    def add_subparsers(self, **kwargs):  # noqa: D102 - remembers the groups, to add the common flags later
+        action = super().add_subparsers(**kwargs)
+        self.command_groups.append(action)
+        return action
 
     def error(self, message: str):  # noqa: D102 - argparse hook
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+#: flags accepted before the subcommand and after it (pip's habit): (flags, help)
+COMMON_FLAGS = (
+    (("--debug",), "show tracebacks for errors"),
+    (("-q", "--quiet"), "no progress bars or summaries"),
+    (("--strict",), f"stop on a broken plugin instead of skipping it ({ENV_STRICT}=1)"),
+)
+
+
+def _add_common_flags(parser: argparse.ArgumentParser) -> None:
+    """Give every subcommand (and theirs) the common flags, defaulting to what came before the subcommand."""
+    for group in getattr(parser, "command_groups", ()):
+        for child in dict.fromkeys(group.choices.values()):  # aliases share one parser
+            for flags, text in COMMON_FLAGS:
+                with contextlib.suppress(argparse.ArgumentError):  # a plugin's command took the flag itself
+                    child.add_argument(*flags, action="store_true", default=argparse.SUPPRESS, help=text)
+            _add_common_flags(child)
+
+
+def _examples(*lines: str) -> str:
+    return "examples:\n" + "\n".join(f"  {line}" for line in lines)
 
 
 def _sets(p: argparse.ArgumentParser) -> None:
@@ -25,7 +89,7 @@ def _sets(p: argparse.ArgumentParser) -> None:
         action="append",
         default=[],
         metavar="FIELD=VALUE",
-        help="override a recipe field, e.g. --set training.steps=100",
+        help="override a recipe field, e.g. --set training.steps=100 (repeatable)",
     )
 
 
@@ -43,83 +107,159 @@ def _plugin_commands(sub) -> None:
             pm.skip(impl.plugin_name, f"failed in register_commands: {type(exc).__name__}: {exc}")
 
 
+def _compose_parser(sub) -> None:
+    p = sub.add_parser(
+        "compose",
+        help="write dances for songs with a trained model",
+        description="Compose a dance for each song with a recipe's trained model; prints each written file, "
+        "one per line, then a summary line on stderr (--json: one JSON summary on stdout instead).",
+        epilog=_examples(
+            "dance compose default --music song.ogg -o out",
+            "dance compose core-synthetic --checkpoint runs/demo/model.safetensors --music a.wav b.wav --json",
+        ),
+    )
+    p.add_argument("recipe", help="recipe file or bundled recipe name (dance recipe list)")
+    p.add_argument("--music", nargs="+", metavar="SONG", help="songs to dance to (default: compose.music)")
+    p.add_argument("--checkpoint", help="model checkpoint (default: compose.checkpoint)")
+    p.add_argument("-o", "--out", metavar="DIR", help="output folder (default: compose.out_dir)")
+    p.add_argument("--samples", type=bounded_number(int, 1, 1000), metavar="N",
+                   help="dances per song, 1-1000 (default: compose.samples)")
+    p.add_argument("--temperature", type=bounded_number(float, 0.0),
+                   help="sampling temperature, 0 = most likely; above 3 the dance is chaotic "
+                   "(default: compose.temperature)")
+    p.add_argument("--seconds", type=bounded_number(float, 0.0, 3600.0, above=True, unit="s"),
+                   help="length of each dance in seconds, up to 3600 (default: the whole song)")
+    p.add_argument("--seed-motion", metavar="FILE", help="motion file to start from, or 'rest'")
+    p.add_argument("--format", dest="formats", action="append", metavar="NAME",
+                   help="output format, e.g. bvh, npz, html, gif (repeatable; default: compose.formats)")
+    p.add_argument("--text", dest="texts", action="append", metavar="[START-END:] TEXT",
+                   help='text instruction, e.g. "20-30: a person jumps" (seconds; no span: the whole song; '
+                        "repeatable; models that read text only)")
+    p.add_argument("--json", action="store_true", help="print one JSON summary instead of the file names")
+    _sets(p)
+    p.set_defaults(run=commands.compose)
+
+
+def _train_parser(sub) -> None:
+    p = sub.add_parser(
+        "train",
+        help="train a recipe's model",
+        description="Train a recipe's model into a run folder (model.safetensors, training state, log, recipe).",
+        epilog=_examples(
+            "dance train core-synthetic --out runs/demo --set training.steps=200",
+            "dance train core-synthetic --out runs/demo --resume",
+        ),
+    )
+    p.add_argument("recipe", help="recipe file or bundled recipe name (dance recipe list)")
+    p.add_argument("-o", "--out", metavar="DIR", help="run folder (default: training.output)")
+    p.add_argument("--resume", action="store_true", help="continue the run in the run folder")
+    p.add_argument("--stop-at", type=bounded_number(int, 1), metavar="STEP",
+                   help="checkpoint and stop at this step (1 to the recipe's total steps)")
+    _sets(p)
+    p.set_defaults(run=commands.train)
+
+
+def _synth_parser(sub) -> None:
+    p = sub.add_parser(
+        "synth",
+        help="write a click-track test song (FILE.wav), or a synthetic dance dataset (--out DIR)",
+        description="Two forms, one at a time:\n"
+        "  dance synth FILE.wav [--bpm --seconds --rate --seed]   a click-track test song\n"
+        "  dance synth --out DIR [--songs | --music SONG...]      a dataset: songs with a beat-locked dancer",
+        epilog=_examples(
+            "dance synth song.wav --bpm 128 --seconds 30",
+            "dance synth --out data/synth --songs 100 --seconds 60 --jobs 2",
+            "dance synth --music my-songs/ --out data/mine --dances 3",
+        ),
+    )
+    p.add_argument("out", nargs="?", metavar="FILE.wav", help="click-track WAV file to write")
+    p.add_argument("--out", dest="out_dir", metavar="DIR",
+                   help="write a dataset instead: songs with a beat-locked SMPL dancer (WAV, BVH, beats, labels)")
+    p.add_argument("--songs", type=bounded_number(int, 1, 100_000), default=10, help="dataset songs, 1-100000")
+    p.add_argument("--music", nargs="+", metavar="SONG",
+                   help="with --out: choreograph the dancer to these songs (files or folders) instead")
+    p.add_argument("--dances", type=bounded_number(int, 1, 1000), default=1, metavar="N",
+                   help="with --music: dances per song, 1-1000")
+    p.add_argument("--tracker", choices=["librosa", "madmom", "auto"], default="librosa",
+                   help="with --music: beat tracker (madmom's model files are non-commercial)")
+    p.add_argument("--fps", type=bounded_number(float, 0.0, 1000.0, above=True), default=60.0,
+                   help="dataset motion frame rate, up to 1000")
+    p.add_argument("--jobs", type=bounded_number(int, 1, 256), default=1, help="dataset worker processes, 1-256")
+    p.add_argument("--bpm", type=bounded_number(float, 20.0, 400.0), default=120.0,
+                   help="click-track tempo in beats per minute, 20-400")
+    p.add_argument("--seconds", type=bounded_number(float, 0.0, 3600.0, above=True, unit="s"),
+                   help="length in seconds, up to 3600 (default: 20 for a click track, 60 for dataset songs)")
+    p.add_argument("--rate", type=bounded_number(int, 8000, 192_000, unit="Hz"), default=22050,
+                   help="sample rate in Hz, 8000-192000")
+    p.add_argument("--seed", type=int, default=0, help="seed of the drone notes and noise")
+    p.set_defaults(run=commands.synth)
+
+
+def _recipe_parsers(sub) -> None:
+    rp = sub.add_parser(
+        "recipe",
+        help="validate, show, list recipes or print their schema",
+        epilog=_examples("dance recipe list", "dance recipe validate my-recipe.yaml"),
+    )
+    rsub = rp.add_subparsers(dest="recipe_command", metavar="ACTION", parser_class=Parser, required=True)
+    for name, fn, text, example in (
+        ("validate", commands.recipe_validate, "check a recipe and its components' options",
+         "dance recipe validate my-recipe.yaml --set training.steps=100"),
+        ("show", commands.recipe_show, "print the resolved recipe", "dance recipe show core-synthetic"),
+    ):
+        p = rsub.add_parser(name, help=text, description=text[:1].upper() + text[1:] + ".",
+                            epilog=_examples(example))
+        p.add_argument("recipe", help="recipe file or bundled recipe name (dance recipe list)")
+        _sets(p)
+        p.set_defaults(run=fn)
+    p = rsub.add_parser("schema", help="print the JSON Schema of recipes",
+                        epilog=_examples("dance recipe schema -o recipe.schema.json"))
+    p.add_argument("-o", "--out", metavar="FILE", help="write to a file instead of stdout")
+    p.set_defaults(run=commands.recipe_schema)
+    p = rsub.add_parser("list", help="list bundled recipes", epilog=_examples("dance recipe list --json"))
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(run=commands.recipe_list)
+
+
 def build_parser() -> Parser:
     """The full argument parser (plugins may add subcommands through ``register_commands``)."""
     from importlib.metadata import version
 
-    parser = Parser(prog="dance", description="Music (and text) to 3D dance motion.")
-    parser.add_argument("--version", action="version", version=f"dance {version('dance-core')}")
-    parser.add_argument("--debug", action="store_true", help="show tracebacks for errors")
-    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
-    parser.add_argument(
-        "--strict", action="store_true", help=f"stop on a broken plugin instead of skipping it ({ENV_STRICT}=1)"
+    parser = Parser(
+        prog="dance",
+        description="Music (and text) to 3D dance motion.",
+        epilog=_examples(
+            "dance compose default --music song.ogg -o out",
+            "dance COMMAND --help",
+        ),
     )
+    parser.add_argument("--version", action="version", version=f"dance {version('dance-core')}")
+    for flags, text in COMMON_FLAGS:
+        parser.add_argument(*flags, action="store_true", help=text)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
-
-    p = sub.add_parser("compose", help="write dances for songs with a trained model")
-    p.add_argument("recipe", help="recipe file or bundled recipe name")
-    p.add_argument("--music", nargs="+", help="songs to dance to (default: compose.music)")
-    p.add_argument("--checkpoint", help="model checkpoint (default: compose.checkpoint)")
-    p.add_argument("-o", "--out", help="output folder (default: compose.out_dir)")
-    p.add_argument("--samples", type=int, help="dances per song")
-    p.add_argument("--temperature", type=float, help="sampling temperature")
-    p.add_argument("--seconds", type=float, help="length of each dance in seconds")
-    p.add_argument("--seed-motion", help="motion file to start from, or 'rest'")
-    p.add_argument("--format", dest="formats", action="append", help="output format (repeatable)")
-    p.add_argument("--text", dest="texts", action="append", metavar="[START-END:] TEXT",
-                   help='text instruction, e.g. "20-30: a person jumps" (seconds; no span: the whole song; '
-                        "repeatable; models that read text only)")
-    _sets(p)
-    p.set_defaults(run=commands.compose)
-
-    p = sub.add_parser("train", help="train a recipe's model")
-    p.add_argument("recipe", help="recipe file or bundled recipe name")
-    p.add_argument("-o", "--out", help="run folder (default: training.output)")
-    p.add_argument("--resume", action="store_true", help="continue the run in the run folder")
-    p.add_argument("--stop-at", type=int, metavar="STEP", help="checkpoint and stop at this step")
-    _sets(p)
-    p.set_defaults(run=commands.train)
-
-    p = sub.add_parser("synth", help="write a click-track test song, or (--out DIR) a synthetic dance dataset")
-    p.add_argument("out", nargs="?", help="WAV file to write (a click track)")
-    p.add_argument("--out", dest="out_dir", metavar="DIR",
-                   help="write a dataset instead: songs with a beat-locked SMPL dancer (WAV, BVH, beats, labels)")
-    p.add_argument("--songs", type=int, default=10, help="dataset songs (default 10)")
-    p.add_argument("--music", nargs="+", metavar="SONG",
-                   help="with --out: choreograph the dancer to these songs (files or folders) instead")
-    p.add_argument("--dances", type=int, default=1, help="with --music: dances per song (default 1)")
-    p.add_argument("--tracker", choices=["librosa", "madmom", "auto"], default="librosa",
-                   help="with --music: beat tracker (default librosa; madmom's model files are non-commercial)")
-    p.add_argument("--fps", type=float, default=60.0, help="dataset motion frame rate (default 60)")
-    p.add_argument("--jobs", type=int, default=1, help="dataset worker processes (default 1)")
-    p.add_argument("--bpm", type=float, default=120.0, help="click-track tempo (default 120)")
-    p.add_argument("--seconds", type=float, help="length (default 20 for a click track, 60 for dataset songs)")
-    p.add_argument("--rate", type=int, default=22050, help="sample rate (default 22050)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the drone notes and noise")
-    p.set_defaults(run=commands.synth)
-
-    p = sub.add_parser("plugins", help="list installed components by kind")
+    _compose_parser(sub)
+    _train_parser(sub)
+    _synth_parser(sub)
+    p = sub.add_parser("plugins", help="list installed components by kind",
+                       epilog=_examples("dance plugins", "dance plugins --json"))
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(run=commands.plugins)
-
     _plugin_commands(sub)
-
-    rp = sub.add_parser("recipe", help="validate, show, list recipes or print their schema")
-    rsub = rp.add_subparsers(dest="recipe_command", metavar="ACTION", parser_class=Parser, required=True)
-    for name, fn, text in (
-        ("validate", commands.recipe_validate, "check a recipe and its components' options"),
-        ("show", commands.recipe_show, "print the resolved recipe"),
-    ):
-        p = rsub.add_parser(name, help=text)
-        p.add_argument("recipe", help="recipe file or bundled recipe name")
-        _sets(p)
-        p.set_defaults(run=fn)
-    p = rsub.add_parser("schema", help="print the JSON Schema of recipes")
-    p.add_argument("-o", "--out", help="write to a file instead of stdout")
-    p.set_defaults(run=commands.recipe_schema)
-    p = rsub.add_parser("list", help="list bundled recipes")
-    p.set_defaults(run=commands.recipe_list)
+    _recipe_parsers(sub)
+    _add_common_flags(parser)
     return parser
+
+
+def describe(exc: BaseException) -> str:
+    """One line for an unexpected ``OSError``/``ValueError``/``MemoryError``, naming its file when it has one."""
+    if isinstance(exc, MemoryError):
+        detail = f" ({exc})" if str(exc) else ""
+        return f"out of memory{detail}; try a shorter song, fewer songs or smaller sizes"
+    if isinstance(exc, OSError) and exc.filename is not None:
+        where = f"{exc.filename} -> {exc.filename2}" if exc.filename2 is not None else str(exc.filename)
+        return f"{where}: {exc.strerror or type(exc).__name__}"
+    text = " ".join(line.strip() for line in str(exc).splitlines() if line.strip())
+    return text or type(exc).__name__
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -153,6 +293,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("dance: interrupted", file=sys.stderr)
         return 130
+    except (OSError, ValueError, MemoryError) as exc:  # not foreseen by a check: still one line
+        if args.debug:
+            raise
+        print(f"dance: error: {describe(exc)} (--debug shows the traceback)", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover
