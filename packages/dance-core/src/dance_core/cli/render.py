@@ -6,6 +6,12 @@ Registered through core's ``register_commands`` hook; everything heavy is import
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+
+from dance_core.cli.checks import bounded_number
+
+#: what ``-o`` may end in (the suffix picks the kind of preview)
+SUFFIXES = (".gif", ".mp4", ".html")
 
 
 def add_parser(subparsers) -> None:
@@ -15,24 +21,35 @@ def add_parser(subparsers) -> None:
         help="render a motion file as a GIF, an MP4 with music, or an HTML player",
         description="Render a motion file (BVH, SMPL pickle, joints, keypoints...) as a stick-figure preview; "
         "the output's suffix picks the kind: .gif, .mp4 (music muxed in) or .html (self-contained player).",
+        epilog="examples:\n"
+        "  dance render out/song.bvh --music song.ogg -o song.mp4\n"
+        "  dance render out/song.bvh -o song.gif -o song.html --size 320 320 --seconds 10",
     )
     p.add_argument("motion", help="motion file (any registered motion format)")
-    p.add_argument("--music", help="song to play along (muxed into MP4, embedded in HTML)")
-    p.add_argument("-o", "--out", action="append", required=True, help="output .gif, .mp4 or .html (repeatable)")
-    p.add_argument("--size", type=int, nargs=2, default=(480, 480), metavar=("W", "H"), help="frame size in pixels")
-    p.add_argument("--fps", type=float, help="preview frame rate (default: the motion's, at most 30)")
-    p.add_argument("--seconds", type=float, help="render only the first SECONDS")
+    p.add_argument("--music", metavar="SONG", help="song to play along (muxed into MP4, embedded in HTML)")
+    p.add_argument("-o", "--out", action="append", required=True, metavar="FILE",
+                   help="output .gif, .mp4 or .html (repeatable)")
+    p.add_argument("--size", type=bounded_number(int, 16, 8192, unit="pixels"), nargs=2, default=(480, 480),
+                   metavar=("W", "H"), help="frame size in pixels, 16-8192 (GIF and MP4)")
+    p.add_argument("--fps", type=bounded_number(float, 0.0, 240.0, above=True),
+                   help="preview frame rate, up to 240 (default: the motion's, at most 30)")
+    p.add_argument("--seconds", type=bounded_number(float, 0.0, above=True), help="render only the first SECONDS")
     p.add_argument("--no-trail", action="store_true", help="do not draw the root's trail on the floor")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Render every ``--out`` file."""
+    """Check every output and input, then render every ``--out`` file (with a progress bar for GIF/MP4)."""
+    from dance_core.cli.checks import check_input_file, check_output_file
     from dance_core.data.files import read_motion_file
     from dance_core.errors import DataError
     from dance_core.registry import get_registry
-    from dance_core.render.preview import render
 
+    for out in args.out:
+        check_output_file(out, "-o", SUFFIXES)
+    check_input_file(args.motion, None, "motion file")
+    if args.music is not None:
+        check_input_file(args.music, "--music", "music file")
     data = read_motion_file(args.motion, get_registry())
     motion = data.skeleton_motion
     if motion is None:
@@ -40,6 +57,29 @@ def run(args: argparse.Namespace) -> int:
     if args.seconds:
         motion = motion.crop(0, max(1, int(round(args.seconds * motion.fps))))
     for out in args.out:
-        n = render(motion, out, args.music, args.size[0], args.size[1], args.fps, not args.no_trail)
+        n = _render(motion, Path(out), args)
         print(f"{out} ({n} frames)")
     return 0
+
+
+def _render(motion, out: Path, args: argparse.Namespace) -> int:
+    """One preview; GIF and MP4 report each frame to a progress bar (hidden by ``-q``)."""
+    from dance_core.render.preview import render
+
+    width, height = args.size
+    suffix = out.suffix.lower()
+    if suffix == ".html":  # no frame loop: written at once
+        return render(motion, out, args.music, width, height, args.fps, not args.no_trail)
+    from dance_core.render.video import preview_fps, write_gif, write_mp4
+    from dance_core.runtime import progress_bar
+
+    fps = preview_fps(motion.fps, args.fps, gif=suffix == ".gif")
+    shown = motion.resample(fps) if abs(fps - motion.fps) > 1e-9 else motion
+    frames = (shown.positions(), motion.skeleton.parents, motion.skeleton.names, fps)
+    common = {"width": width, "height": height, "trail": not args.no_trail, "title": out.stem}
+    with progress_bar(args.quiet) as bar:
+        task = bar.add_task(f"render {out.name}", total=len(frames[0]), info="") if bar else None
+        progress = (lambda done, total: bar.update(task, completed=done)) if bar else None
+        if suffix == ".gif":
+            return write_gif(out, *frames, progress=progress, **common)
+        return write_mp4(out, *frames, music=args.music, progress=progress, **common)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import subprocess
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -21,12 +22,18 @@ def preview_fps(fps: float, wanted: float | None, gif: bool = False, cap: float 
 
 
 def write_gif(path: str | Path, positions: np.ndarray, parents: list[int], names: list[str], fps: float,
-              width: int = 480, height: int = 480, trail: bool = True, title: str = "") -> int:
-    """An animated GIF, one frame per motion frame (frame times rounded to 10 ms); returns the frame count."""
+              width: int = 480, height: int = 480, trail: bool = True, title: str = "",
+              progress: Callable[[int, int], None] | None = None) -> int:
+    """An animated GIF, one frame per motion frame (frame times rounded to 10 ms); returns the frame count.
+    ``progress(done, total)`` is called after each frame."""
     rendered = render_frames(positions, parents, names, fps, width, height, trail, title)  # checks matplotlib
     from PIL import Image  # Pillow comes with matplotlib
 
-    frames = [Image.fromarray(f).quantize(colors=64, method=Image.Quantize.FASTOCTREE) for f in rendered]
+    frames = []
+    for f in rendered:
+        frames.append(Image.fromarray(f).quantize(colors=64, method=Image.Quantize.FASTOCTREE))
+        if progress:
+            progress(len(frames), len(positions))
     with atomic_path(path) as tmp:
         frames[0].save(tmp, format="GIF", save_all=True, append_images=frames[1:], loop=0,
                        duration=10 * round(100 / fps), disposal=1, optimize=False)
@@ -44,8 +51,9 @@ def ffmpeg_exe() -> str:
 
 def write_mp4(path: str | Path, positions: np.ndarray, parents: list[int], names: list[str], fps: float,
               music: str | Path | None = None, width: int = 480, height: int = 480, trail: bool = True,
-              title: str = "") -> int:
-    """An H.264 MP4 with the music (AAC) muxed in when given; returns the frame count."""
+              title: str = "", progress: Callable[[int, int], None] | None = None) -> int:
+    """An H.264 MP4 with the music (AAC) muxed in when given; returns the frame count.
+    ``progress(done, total)`` is called after each frame."""
     width, height = width - width % 2, height - height % 2
     path = Path(path)
     cmd = [ffmpeg_exe(), "-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24",
@@ -64,6 +72,8 @@ def write_mp4(path: str | Path, positions: np.ndarray, parents: list[int], names
             for frame in render_frames(positions, parents, names, fps, width, height, trail, title):
                 proc.stdin.write(np.ascontiguousarray(frame).tobytes())
                 n += 1
+                if progress:
+                    progress(n, len(positions))
             proc.stdin.close()
         except BrokenPipeError:
             pass
