@@ -14,7 +14,14 @@ KIND = "feature"
 
 def run_features(args) -> int:
     """Extract the named features of one song at ``args.fps`` and save them (and a plot) atomically."""
-    from dance_core import FeatureInputs, get_registry, load_audio, write_bytes
+    from dance_core import (
+        FeatureInputs,
+        check_input_file,
+        check_output_file,
+        get_registry,
+        load_audio,
+        write_bytes,
+    )
 
     if args.plot:  # before any work: a missing matplotlib is one line, not a lost extraction
         from .plot import require_plotting
@@ -22,8 +29,14 @@ def run_features(args) -> int:
         require_plotting()
     registry = get_registry()
     names = args.extractors or ["librosa-438"]
-    if args.fps <= 0:
+    for name in names:  # an unknown name fails before the song is decoded
+        registry.get(KIND, name)
+    if not args.fps > 0:
         raise DataError(f"--fps: must be positive, got {args.fps}")
+    check_input_file(args.song, None, "audio file")
+    check_output_file(args.out, "-o")
+    if args.plot:
+        check_output_file(args.plot, "--plot")
     audio = load_audio(Path(args.song), registry)
     n_frames = audio.n_frames(args.fps)
     inputs = FeatureInputs(n_frames=n_frames, audio=audio)

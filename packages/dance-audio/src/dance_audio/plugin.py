@@ -73,7 +73,17 @@ def register_feature_extractors(register):
 @hookimpl
 def register_commands(subparsers):
     """``dance features``: extract features of one song to an .npz (and a plot to check by eye)."""
-    p = subparsers.add_parser("features", help="extract music features of a song to an .npz file")
+    from dance_core import bounded_number
+
+    p = subparsers.add_parser(
+        "features",
+        help="extract music features of a song to an .npz file",
+        description="Extract the named feature extractors' frames of one song into an .npz (one array per "
+        "extractor, plus fps); --plot also draws the song for a check by eye.",
+        epilog="examples:\n"
+        "  dance features song.mp3 -o feats.npz\n"
+        "  dance features song.mp3 -x librosa-438 -x madmom-downbeat -o feats.npz --plot feats.png",
+    )
     p.add_argument("song", help="audio file (wav, flac, ogg, mp3)")
     p.add_argument(
         "-x",
@@ -81,11 +91,13 @@ def register_commands(subparsers):
         action="append",
         dest="extractors",
         metavar="NAME",
-        help="feature extractor to run (repeatable; default: librosa-438)",
+        help="feature extractor to run (repeatable; default: librosa-438; see dance plugins)",
     )
-    p.add_argument("-o", "--out", required=True, help="output .npz (one array per extractor, plus fps)")
-    p.add_argument("--fps", type=float, default=30.0, help="frames per second (default 30)")
-    p.add_argument("--plot", help="also write a PNG: mel spectrogram, onset envelope, beats and downbeats")
+    p.add_argument("-o", "--out", required=True, metavar="FILE", help="output .npz (one array per extractor, plus fps)")
+    p.add_argument("--fps", type=bounded_number(float, 0.0, 1000.0, above=True), default=30.0,
+                   help="frames per second, up to 1000")
+    p.add_argument("--plot", metavar="FILE",
+                   help="also write a PNG: mel spectrogram, onset envelope, beats and downbeats")
     p.set_defaults(run=_run_features)
 
 

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import argparse
 
+from dance_core.cli.checks import bounded_number
+
 
 def add_parser(subparsers) -> None:
     """Add the ``evaluate`` subcommand."""
@@ -14,7 +16,10 @@ def add_parser(subparsers) -> None:
         "evaluate",
         help="score generated dances against reference dances (FID, BAS, freezing...)",
         description="Score a folder of generated motion files against a folder of reference motion "
-        "files with the registered metrics; writes a JSON report and plots.",
+        "files with the registered metrics; writes a JSON report and plots (--json: the report on stdout too).",
+        epilog="examples:\n"
+        "  dance evaluate --generated out --reference data/test --music data/test -o report.json\n"
+        "  dance evaluate --generated out --reference data/test --metrics fid-k fid-g --no-plots --json",
     )
     p.add_argument("--generated", required=True, metavar="DIR", help="folder of generated motion files")
     p.add_argument("--reference", required=True, metavar="DIR", help="folder of reference (real) motion files")
@@ -22,17 +27,19 @@ def add_parser(subparsers) -> None:
         "--music", metavar="DIR", help="folder of the songs (audio or NAME.beats) named like the motion files"
     )
     p.add_argument("--metrics", nargs="+", metavar="NAME", help="metrics to compute (default: all registered)")
-    p.add_argument("-o", "--out", default="report.json", help="JSON report to write (default: report.json)")
+    p.add_argument("-o", "--out", default="report.json", metavar="FILE", help="JSON report to write")
     p.add_argument("--plots", metavar="DIR", help="folder for the figures (default: next to the report)")
     p.add_argument("--no-plots", action="store_true", help="write no figures")
-    p.add_argument("--plot-clips", type=int, default=4, metavar="N", help="beat figures for N clips (default 4)")
+    p.add_argument("--plot-clips", type=bounded_number(int, 0, 1000), default=4, metavar="N",
+                   help="beat figures for N clips")
     p.add_argument(
         "--compat",
         action="store_true",
         help="reproduce the AIST++/Bailando feature bugs, for comparison with published tables",
     )
     p.add_argument("--up", choices=("y", "z"), help="up axis of the motion files (default: what the format says)")
-    p.add_argument("--fps", type=float, help="common frame rate (default: the reference set's)")
+    p.add_argument("--fps", type=bounded_number(float, 0.0, 1000.0, above=True),
+                   help="common frame rate, up to 1000 (default: the reference set's)")
     p.add_argument(
         "--suffix",
         dest="suffixes",
@@ -40,7 +47,24 @@ def add_parser(subparsers) -> None:
         metavar=".EXT",
         help="read only motion files with this suffix (repeatable; default: every registered format's)",
     )
+    p.add_argument("--json", action="store_true", help="print the JSON report on stdout (the table goes to stderr)")
     p.set_defaults(run=run)
+
+
+def check_args(args: argparse.Namespace) -> None:
+    """Folders read and files written, checked before any clip is loaded."""
+    from pathlib import Path
+
+    from dance_core.cli.checks import check_input_dir, check_output_dir, check_output_file
+
+    check_input_dir(args.generated, "--generated", "folder of motion files")
+    check_input_dir(args.reference, "--reference", "folder of motion files")
+    if args.music is not None:
+        check_input_dir(args.music, "--music", "folder of songs")
+    out = check_output_file(args.out, "-o")
+    if not args.no_plots:
+        plots = Path(args.plots) if args.plots else out.with_name(f"{out.stem}-plots")
+        check_output_dir(plots, "--plots" if args.plots else "-o (its plot folder)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -49,7 +73,6 @@ def run(args: argparse.Namespace) -> int:
 
     from rich.console import Console
 
-    from dance_core.errors import DanceError
     from dance_core.evaluation import loading
     from dance_core.evaluation import report as R
     from dance_core.registry import get_registry
@@ -58,8 +81,7 @@ def run(args: argparse.Namespace) -> int:
     registry = get_registry()
     for name in args.metrics or []:
         registry.get("metric", name)
-    if args.fps is not None and args.fps <= 0:
-        raise DanceError(f"--fps must be positive, got {args.fps}")
+    check_args(args)
     with progress_bar(args.quiet) as bar:
 
         def reader(label: str):
@@ -97,7 +119,11 @@ def run(args: argparse.Namespace) -> int:
         folder = Path(args.plots) if args.plots else out.with_name(f"{out.stem}-plots")
         report.info["plots"] = [str(p) for p in write_plots(generated, folder, args.plot_clips)]
     R.write_json(report, out)
-    console = Console()
+    if args.json:  # the report for scripts on stdout, the table for people on stderr
+        import sys
+
+        sys.stdout.write(out.read_text(encoding="utf-8"))
+    console = Console(stderr=args.json)
     console.print(R.render_table(report, f"dance evaluate: {len(generated)} generated vs {len(reference)} reference"))
     for name, reason in report.skipped.items():
         console.print(f"[yellow]{name}: n/a:[/] {reason}")

@@ -51,22 +51,30 @@ RESERVED = frozenset({"core", "audio", "flow", "rnn", "tokens"})
 
 def add_parser(subparsers) -> None:
     """Add ``dance plugin`` with its ``new`` action."""
-    p = subparsers.add_parser("plugin", help="tools for plugin authors (plugin new)")
+    p = subparsers.add_parser("plugin", help="tools for plugin authors (plugin new)",
+                              epilog="examples:\n  dance plugin new myhead --kind head --out plugins")
     actions = p.add_subparsers(dest="plugin_command", metavar="ACTION", parser_class=type(p), required=True)
     new = actions.add_parser(
         "new",
         help="write a plugin package: a working component, tests and an example recipe",
         description="Write dance-NAME/: a package with the dance entry point, a small working component "
         "of the kind, tests that run dance_core.testing's contract checks and train its example recipe.",
+        epilog="examples:\n"
+        "  dance plugin new myhead --kind head\n"
+        "  dance plugin new loudness --kind feature --out plugins",
     )
     new.add_argument("name", help="component and plugin name: lowercase letters and digits, '-' or '_' between words")
     new.add_argument("--kind", required=True, choices=list(KINDS), help="the kind of component")
-    new.add_argument("--out", default=".", metavar="DIR", help="folder to write dance-NAME/ into (default: .)")
+    new.add_argument("--out", default=".", metavar="DIR", help="folder to write dance-NAME/ into")
     new.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write the package and say what to do next."""
+    """Check the name and the folder, write the package and say what to do next."""
+    from dance_core.cli.checks import check_output_dir
+
+    check_name(args.name, args.kind)
+    check_output_dir(args.out, "--out")
     target = new_plugin(args.name, args.kind, args.out)
     n_files = sum(1 for p in target.rglob("*") if p.is_file())
     print(f"wrote {target}/ ({args.kind} {args.name!r}, {n_files} files); next:")
