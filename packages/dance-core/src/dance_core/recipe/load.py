@@ -39,7 +39,9 @@ class SourceMap:
             found = source.line_of(loc)
             if found is not None and (best is None or found[1] > best[0]):
                 best = (found[1], f"{source.origin}:{found[0]}")
-        return best[1] if best else "<recipe>"
+        if best:
+            return best[1]
+        return f"{self.sources[-1].origin}:1" if self.sources else "<recipe>"
 
 
 def _other_component(base: Any, value: Any) -> bool:
@@ -140,24 +142,79 @@ def _render(errors: list[dict[str, Any]], smap: SourceMap, prefix: tuple[Any, ..
     return lines
 
 
+def _component_problems(
+    kind: str, loc: tuple[Any, ...], plugin: str, options: dict[str, Any], smap: SourceMap, registry: Registry
+) -> tuple[list[str], Any, Any]:
+    """(error lines, entry, validated config) of one component's plugin name and options."""
+    try:
+        entry = registry.get(kind, plugin)
+    except PluginError as exc:
+        return [f"{smap.where(loc + ('plugin',))}: {dotted(loc)}.plugin: {exc}"], None, None
+    try:
+        return [], entry, entry.validate(options)
+    except ValidationError as exc:
+        return _render(exc.errors(), smap, loc), entry, None
+    except PluginError as exc:
+        return [f"{smap.where(loc)}: {dotted(loc)}: {exc}"], entry, None
+
+
 def validate_components(recipe: Recipe, smap: SourceMap, registry: Registry) -> None:
     """Validate every component's options with its plugin's config model."""
     problems: list[str] = []
     for kind, loc, spec in recipe.components():
-        try:
-            entry = registry.get(kind, spec.plugin)
-        except PluginError as exc:
-            problems.append(f"{smap.where(loc + ('plugin',))}: {dotted(loc)}.plugin: {exc}")
-            continue
-        spec._entry = entry
-        try:
-            spec._config = entry.validate(spec.options())
-        except ValidationError as exc:
-            problems.extend(_render(exc.errors(), smap, loc))
-        except PluginError as exc:
-            problems.append(f"{smap.where(loc)}: {dotted(loc)}: {exc}")
+        lines, entry, config = _component_problems(kind, loc, spec.plugin, spec.options(), smap, registry)
+        problems += lines
+        if entry is not None:
+            spec._entry = entry
+        if not lines:
+            spec._config = config
     if problems:
         raise RecipeError("\n".join(problems))
+
+
+def _raw_components(data: Any) -> list[tuple[str, tuple[Any, ...], Any]]:
+    """(kind, location, mapping) of every component place in an unvalidated recipe (as ``Recipe.components``)."""
+
+    def get(node: Any, *keys: str) -> Any:
+        for key in keys:
+            node = node.get(key) if isinstance(node, dict) else None
+        return node
+
+    found: list[tuple[str, tuple[Any, ...], Any]] = []
+    features = get(data, "features")
+    for stream, specs in features.items() if isinstance(features, dict) else ():
+        for i, spec in enumerate(specs if isinstance(specs, list) else ()):
+            found.append(("feature", ("features", stream, i), spec))
+    for kind, keys in (("conditioner", ("model", "conditioners")), ("schedule", ("training", "schedules"))):
+        named = get(data, *keys)
+        for name, spec in named.items() if isinstance(named, dict) else ():
+            found.append((kind, (*keys, name), spec))
+    for kind, keys in (
+        ("motion-representation", ("motion",)),
+        ("encoder", ("model", "encoder")),
+        ("head", ("model", "head")),
+        ("dataset", ("data", "dataset")),
+        ("schedule", ("training", "lr_schedule")),
+    ):
+        found.append((kind, keys, get(data, *keys)))
+    return found
+
+
+def _schema_and_component_errors(
+    exc: ValidationError, data: dict[str, Any], smap: SourceMap, registry: Registry
+) -> RecipeError:
+    """Every class of error at once: the schema's, then those of each component the schema did not reject."""
+    lines = _render(exc.errors(), smap)
+    bad = [tuple(str(p) for p in err["loc"]) for err in exc.errors()]
+    for kind, loc, spec in _raw_components(data):
+        if not isinstance(spec, dict) or not isinstance(spec.get("plugin"), str):
+            continue
+        key = tuple(str(p) for p in loc)
+        if any(b[: len(key)] == key for b in bad):
+            continue  # the schema already reported this component
+        options = {k: v for k, v in spec.items() if k != "plugin"}
+        lines += _component_problems(kind, loc, spec["plugin"], options, smap, registry)[0]
+    return RecipeError("\n".join(lines))
 
 
 def load_recipe(
@@ -168,8 +225,12 @@ def load_recipe(
     """Read, merge, override and validate a recipe file (or a bundled recipe name)."""
     registry = registry or get_registry()
     path = Path(path)
-    if not path.exists() and path.suffix == "" and str(path) in registry.names("recipe"):
-        path = Path(str(registry.get("recipe", str(path)).target))
+    if not path.exists() and path.suffix == "":
+        if str(path) in registry.names("recipe"):
+            path = Path(str(registry.get("recipe", str(path)).target))
+        else:
+            bundled = ", ".join(registry.names("recipe")) or "none installed"
+            raise RecipeError(f"{path}: no such recipe file or bundled recipe (bundled: {bundled})")
     smap = SourceMap()
     data = _read_with_bases(path, smap, registry)
     for assignment in overrides:
@@ -177,7 +238,7 @@ def load_recipe(
     try:
         recipe = Recipe.model_validate(data)
     except ValidationError as exc:
-        raise RecipeError("\n".join(_render(exc.errors(), smap))) from None
+        raise _schema_and_component_errors(exc, data, smap, registry) from None
     recipe._dir = str(path.parent)
     recipe._origin = str(path)
     validate_components(recipe, smap, registry)

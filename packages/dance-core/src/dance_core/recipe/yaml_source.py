@@ -81,15 +81,19 @@ def parse_text(text: str, origin: str) -> Source:
 
 def parse_file(path: Path) -> Source:
     """Parse a recipe file; a missing or unreadable file is a one-line error."""
+    if path.is_dir():
+        raise RecipeError(f"{path}: is a folder, not a recipe file")
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise RecipeError(f"{path}: recipe file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise RecipeError(f"{path}: cannot read recipe: {exc}") from None
+    except UnicodeDecodeError:
+        raise RecipeError(f"{path}: not a recipe: not UTF-8 text") from None
+    except OSError as exc:
+        raise RecipeError(f"{path}: cannot read recipe: {exc.strerror or exc}") from None
     source = parse_text(text, str(path))
     if source.data is None:
-        source.data = {}
+        raise RecipeError(f"{path}: recipe file is empty (it needs at least name: and model:, or extends:)")
     if not isinstance(source.data, dict):
         raise RecipeError(f"{path}:1: a recipe must be a mapping of fields, not a {type(source.data).__name__}")
     return source
