@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import os
 import random
-from contextlib import contextmanager
 
 import numpy as np
 import torch
-from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from dance_core.errors import DanceError
+from dance_core.progress import progress_bar  # noqa: F401 - re-exported for the loops
 
 
 def pick_device(name: str = "auto", threads: int | None = None) -> torch.device:
@@ -49,23 +47,3 @@ def seed_everything(seed: int) -> None:
     random.seed(seed)
     np.random.seed(seed % 2**32)
     torch.manual_seed(seed)
-
-
-@contextmanager
-def progress_bar(quiet: bool, console: Console | None = None):
-    """A rich progress display with a free-text ``info`` field; a no-op when quiet."""
-    if quiet:
-        yield None
-        return
-    progress = Progress(
-        TextColumn("[bold]{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        TextColumn("{task.fields[info]}"),
-        console=console or Console(stderr=True),
-        transient=False,
-    )
-    with progress:
-        yield progress

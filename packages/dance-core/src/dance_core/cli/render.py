@@ -67,19 +67,11 @@ def _render(motion, out: Path, args: argparse.Namespace) -> int:
     from dance_core.render.preview import render
 
     width, height = args.size
-    suffix = out.suffix.lower()
-    if suffix == ".html":  # no frame loop: written at once
+    if out.suffix.lower() == ".html":  # no frame loop: written at once
         return render(motion, out, args.music, width, height, args.fps, not args.no_trail)
-    from dance_core.render.video import preview_fps, write_gif, write_mp4
-    from dance_core.runtime import progress_bar
+    from dance_core.progress import progress_bar
 
-    fps = preview_fps(motion.fps, args.fps, gif=suffix == ".gif")
-    shown = motion.resample(fps) if abs(fps - motion.fps) > 1e-9 else motion
-    frames = (shown.positions(), motion.skeleton.parents, motion.skeleton.names, fps)
-    common = {"width": width, "height": height, "trail": not args.no_trail, "title": out.stem}
     with progress_bar(args.quiet) as bar:
-        task = bar.add_task(f"render {out.name}", total=len(frames[0]), info="") if bar else None
-        progress = (lambda done, total: bar.update(task, completed=done)) if bar else None
-        if suffix == ".gif":
-            return write_gif(out, *frames, progress=progress, **common)
-        return write_mp4(out, *frames, music=args.music, progress=progress, **common)
+        task = bar.add_task(f"render {out.name}", total=None, info="") if bar else None
+        progress = (lambda done, total: bar.update(task, completed=done, total=total)) if bar else None
+        return render(motion, out, args.music, width, height, args.fps, not args.no_trail, progress=progress)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -13,8 +14,10 @@ SUFFIXES = (".gif", ".mp4", ".html")
 
 
 def render(motion: Motion, path: str | Path, music: str | Path | None = None, width: int = 480,
-           height: int = 480, fps: float | None = None, trail: bool = True, title: str | None = None) -> int:
-    """Write a GIF, an MP4 (with ``music`` muxed in) or an HTML player; returns the frame count."""
+           height: int = 480, fps: float | None = None, trail: bool = True, title: str | None = None,
+           progress: Callable[[int, int], None] | None = None) -> int:
+    """Write a GIF, an MP4 (with ``music`` muxed in) or an HTML player; returns the frame count.
+    ``progress(done, total)`` is called as GIF/MP4 frames are drawn."""
     from dance_core.render.video import preview_fps, write_gif, write_mp4
 
     path = Path(path)
@@ -30,9 +33,10 @@ def render(motion: Motion, path: str | Path, music: str | Path | None = None, wi
     out_fps = preview_fps(motion.fps, fps, gif=suffix == ".gif")
     shown = motion.resample(out_fps) if abs(out_fps - motion.fps) > 1e-9 else motion
     args = (shown.positions(), skel.parents, skel.names, out_fps)
+    common = {"width": width, "height": height, "trail": trail, "title": title, "progress": progress}
     if suffix == ".gif":
-        return write_gif(path, *args, width=width, height=height, trail=trail, title=title)
-    return write_mp4(path, *args, music=music, width=width, height=height, trail=trail, title=title)
+        return write_gif(path, *args, **common)
+    return write_mp4(path, *args, music=music, **common)
 
 
 class PreviewFormat:
