@@ -1,33 +1,232 @@
-"""Atomic file writes: a temporary file in the target's folder, then ``os.replace``."""
+"""Atomic file writes: temporary files beside their targets, renamed into place only on success.
+
+Every temporary name is ``.TARGET.dance-PID-XXXXXXXX[SUFFIX]``: hidden, next to its target, carrying
+the writing process's id. Ctrl-C, SIGTERM (raised as :class:`Terminated` while a write or an
+:class:`OutputSet` is open) and errors remove it; one left by a killed process (SIGKILL, power loss)
+is removed by :func:`sweep_stale_temps` the next time an output set writes that target.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import os
+import signal
 import tempfile
-from collections.abc import Iterator
+import threading
+from collections.abc import Iterable, Iterator
 from pathlib import Path
+from types import TracebackType
+
+from dance_core.errors import DataError
+
+TEMP_MARK = ".dance-"
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM raised as an interrupt, so that ``finally`` blocks and context managers clean up."""
+
+
+def _on_sigterm(signum, frame) -> None:
+    raise Terminated("terminated (SIGTERM)")
+
+
+def install_sigterm_handler() -> None:
+    """Make SIGTERM raise :class:`Terminated` in this process from now on (main thread only)."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _on_sigterm)
+
+
+@contextlib.contextmanager
+def sigterm_as_interrupt() -> Iterator[None]:
+    """While the block runs, SIGTERM raises :class:`Terminated` instead of killing the process at once.
+
+    Only in the main thread, and only where SIGTERM still has its default action: a handler the
+    application installed itself (or ignoring SIGTERM) is left alone.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.getsignal(signal.SIGTERM)
+    if previous is not signal.SIG_DFL:
+        yield
+        return
+    signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back while the block runs (delivered when it ends), where POSIX allows."""
+    held = {signal.SIGINT, signal.SIGTERM}
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+def output_mode() -> int:
+    """The mode a new output file gets: ``0o666`` less the process's umask (0644 under umask 022)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
+def _temp_file(path: Path, suffix: str | None) -> Path:
+    fd, tmp = tempfile.mkstemp(
+        prefix=f".{path.name}{TEMP_MARK}{os.getpid()}-",
+        suffix=suffix if suffix is not None else path.suffix,
+        dir=path.parent,
+    )
+    os.close(fd)
+    return Path(tmp)
+
+
+def _publish(tmp: Path, path: Path, mode: int) -> None:
+    # mkstemp creates 0600, and writers that replace the temporary file keep their own mode
+    os.chmod(tmp, mode)
+    os.replace(tmp, path)
+
+
+def _check_target(path: Path) -> None:
+    if path.is_dir():
+        raise DataError(f"{path}: is a folder; cannot write a file there")
+
+
+def pid_alive(pid: int) -> bool:
+    """True when a process with this id exists (ours or another user's)."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    except OSError:
+        return False
+    return True
+
+
+def temp_owner(name: str, targets: Iterable[str] | None = None) -> int | None:
+    """The pid in a temporary file's name (nested temporaries included), or None when ``name`` is
+    not one of ours (or not one for ``targets``, when given)."""
+    if not name.startswith("."):
+        return None
+    bare = name.lstrip(".")
+    candidates = [t.lstrip(".") for t in targets] if targets is not None else [bare.split(TEMP_MARK, 1)[0]]
+    for target in candidates:
+        head = f"{target}{TEMP_MARK}"
+        if target and bare.startswith(head):
+            pid = bare[len(head) :].split("-", 1)[0]
+            return int(pid) if pid.isdigit() else None
+    return None
+
+
+def sweep_stale_temps(folder: str | Path, targets: Iterable[str] | None = None) -> list[Path]:
+    """Remove the temporary files that dead processes left in ``folder`` (for ``targets`` only, when
+    given); returns what was removed. Files of running processes are never touched."""
+    removed = []
+    targets = list(targets) if targets is not None else None
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        pid = temp_owner(entry.name, targets)
+        if pid is None or pid_alive(pid) or not entry.is_file(follow_symlinks=False):
+            continue
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(entry.path)
+            removed.append(Path(entry.path))
+    return removed
 
 
 @contextlib.contextmanager
 def atomic_path(path: str | Path, suffix: str | None = None) -> Iterator[Path]:
-    """Yield a temporary path next to ``path``; it replaces ``path`` only if the block succeeds."""
+    """Yield a temporary path next to ``path``; it replaces ``path`` (with the umask's mode) only if
+    the block succeeds, and is removed otherwise, SIGTERM included."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(
-        prefix=f".{path.name}.", suffix=suffix if suffix is not None else path.suffix, dir=path.parent
-    )
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)
-    tmp_path = Path(tmp)
-    try:
-        yield tmp_path
-        os.replace(tmp_path, path)
-    finally:
-        if tmp_path.exists():
-            tmp_path.unlink()
+    _check_target(path)
+    mode = output_mode()
+    tmp: Path | None = None
+    with sigterm_as_interrupt():
+        try:
+            tmp = _temp_file(path, suffix)
+            yield tmp
+            _publish(tmp, path, mode)
+        finally:
+            if tmp is not None:
+                tmp.unlink(missing_ok=True)
+
+
+class OutputSet:
+    """Files that appear together or not at all.
+
+    ``path(target)`` gives a temporary path beside ``target`` to write instead; when the ``with``
+    block succeeds every temporary file is renamed onto its target in one pass, and when it fails
+    (an error, Ctrl-C, SIGTERM) every one is removed, so no target is replaced. Stale temporary files
+    of the same targets, left by a killed process, are swept away first.
+    """
+
+    def __init__(self) -> None:
+        self._pending: list[tuple[Path, Path]] = []
+        self._stack = contextlib.ExitStack()
+
+    def __enter__(self) -> OutputSet:
+        self._stack.enter_context(sigterm_as_interrupt())
+        return self
+
+    def path(self, target: str | Path) -> Path:
+        """A fresh temporary file (same suffix) standing for ``target`` until the set is committed."""
+        target = Path(target)
+        if any(t == target for _, t in self._pending):
+            raise DataError(f"{target}: written twice in one output set")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        _check_target(target)
+        sweep_stale_temps(target.parent, [target.name])
+        tmp = _temp_file(target, None)
+        self._pending.append((tmp, target))
+        return tmp
+
+    def targets(self) -> list[Path]:
+        """The targets asked for so far, in order."""
+        return [t for _, t in self._pending]
+
+    def commit(self) -> None:
+        """Rename every temporary file onto its target (what a successful ``with`` block does)."""
+        mode = output_mode()
+        for tmp, target in self._pending:
+            _check_target(target)
+            if not tmp.exists():
+                raise DataError(f"{target}: its writer left no file")
+        with _signals_held():  # an interrupt lands after the rename pass, never inside it
+            for tmp, target in self._pending:
+                _publish(tmp, target, mode)
+            self._pending = []
+
+    def discard(self) -> None:
+        """Remove every temporary file not yet committed."""
+        for tmp, _ in self._pending:
+            tmp.unlink(missing_ok=True)
+        self._pending = []
+
+    def __exit__(
+        self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        try:
+            if kind is None:
+                self.commit()
+        finally:
+            self.discard()
+            self._stack.close()
 
 
 def write_text(path: str | Path, text: str) -> None:
