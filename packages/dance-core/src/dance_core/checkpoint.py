@@ -1,8 +1,14 @@
-"""Checkpoints: weights, normalization statistics and the resolved recipe in one safetensors file."""
+"""Checkpoints: weights, normalization statistics and the resolved recipe in one safetensors file.
+
+The files are written by :func:`write_safetensors`, byte for byte the same for the same tensors and
+metadata (sorted header keys, no time or path), and read back with the ``safetensors`` library.
+"""
 
 from __future__ import annotations
 
 import json
+import struct
+import sys
 from dataclasses import dataclass
 from importlib.metadata import distributions
 from pathlib import Path
@@ -11,7 +17,7 @@ from typing import Any
 import numpy as np
 import torch
 from safetensors import SafetensorError
-from safetensors.torch import load_file, save_file
+from safetensors.torch import load_file
 
 from dance_core.atomic import atomic_path
 from dance_core.data.stats import NormStats
@@ -22,30 +28,79 @@ FORMAT = "dance-checkpoint/1"
 STATE_FORMAT = "dance-train-state/1"
 
 
+_DTYPES = {
+    torch.float64: "F64", torch.float32: "F32", torch.float16: "F16", torch.bfloat16: "BF16",
+    torch.int64: "I64", torch.int32: "I32", torch.int16: "I16", torch.int8: "I8", torch.uint8: "U8",
+    torch.bool: "BOOL",
+}
+
+
 def versions() -> dict[str, str]:
-    """Versions of torch and every installed dance distribution."""
+    """Versions of torch and every installed dance distribution, sorted by name."""
     found = {"torch": torch.__version__}
     for dist in distributions():
         name = dist.metadata["name"] or ""
         if name.startswith("dance-"):
             found[name] = dist.version
-    return found
+    return dict(sorted(found.items()))
+
+
+def _dumps(value: Any) -> str:
+    """JSON for metadata: sorted keys, so equal values give equal bytes."""
+    return json.dumps(value, sort_keys=True)
+
+
+def write_safetensors(path: str | Path, tensors: dict[str, torch.Tensor], metadata: dict[str, str]) -> None:
+    """Write a safetensors file deterministically: the header's keys sorted, tensors ordered by
+    element size then name (every tensor aligned), the header padded to 8 bytes."""
+    if sys.byteorder != "little":  # pragma: no cover - safetensors stores little-endian data
+        raise CheckpointError(f"{path}: writing checkpoints needs a little-endian machine")
+    for name, t in tensors.items():
+        if t.dtype not in _DTYPES:
+            raise CheckpointError(f"{path}: tensor {name!r} has unsupported dtype {t.dtype}")
+    order = sorted(tensors, key=lambda k: (-tensors[k].element_size(), k))
+    header: dict[str, Any] = {"__metadata__": {str(k): str(v) for k, v in metadata.items()}}
+    offset = 0
+    for name in order:
+        t = tensors[name]
+        size = t.numel() * t.element_size()
+        header[name] = {"dtype": _DTYPES[t.dtype], "shape": list(t.shape), "data_offsets": [offset, offset + size]}
+        offset += size
+    blob = json.dumps(header, sort_keys=True, separators=(",", ":"), ensure_ascii=False).encode("utf-8")
+    blob += b" " * (-(8 + len(blob)) % 8)
+    with open(path, "wb") as fh:
+        fh.write(struct.pack("<Q", len(blob)))
+        fh.write(blob)
+        for name in order:
+            flat = tensors[name].detach().to("cpu").contiguous().reshape(-1)
+            fh.write(flat.view(torch.uint8).numpy().tobytes())
 
 
 def _save(path: Path, tensors: dict[str, torch.Tensor], metadata: dict[str, str]) -> None:
     tensors = {k: v.detach().to("cpu").contiguous().clone() for k, v in tensors.items()}
     with atomic_path(path) as tmp:
-        save_file(tensors, str(tmp), metadata=metadata)
+        write_safetensors(tmp, tensors, metadata)
 
 
-def _load(path: Path, what: str) -> tuple[dict[str, torch.Tensor], dict[str, str]]:
+def _metadata(path: Path, what: str) -> dict[str, str]:
     if not path.exists():
         raise CheckpointError(f"{path}: {what} not found")
+    if path.is_dir():
+        inside = path / "model.safetensors"
+        hint = f" (the run's checkpoint is {inside})" if inside.is_file() else ""
+        raise CheckpointError(f"{path}: is a folder, not a {what} file{hint}")
     try:
         from safetensors import safe_open
 
         with safe_open(str(path), framework="pt") as f:
-            metadata = f.metadata() or {}
+            return f.metadata() or {}
+    except (SafetensorError, OSError, ValueError) as exc:
+        raise CheckpointError(f"{path}: not a readable safetensors {what}: {exc}") from None
+
+
+def _load(path: Path, what: str) -> tuple[dict[str, torch.Tensor], dict[str, str]]:
+    metadata = _metadata(path, what)
+    try:
         tensors = load_file(str(path))
     except (SafetensorError, OSError, ValueError) as exc:
         raise CheckpointError(f"{path}: not a readable safetensors {what}: {exc}") from None
@@ -63,6 +118,7 @@ class Checkpoint:
     motion: dict[str, Any]
     versions: dict[str, str]
     step: int
+    run: str | None = None  #: the training run's id (None in checkpoints written before run ids)
 
 
 def save_checkpoint(
@@ -72,17 +128,20 @@ def save_checkpoint(
     recipe: Recipe,
     motion: dict[str, Any],
     step: int,
+    run: str | None = None,
 ) -> None:
-    """Write weights, statistics and metadata atomically."""
+    """Write weights, statistics and metadata atomically (``run``: the training run's id)."""
     tensors = {f"model.{k}": v for k, v in model.state_dict().items()}
     tensors.update({k: torch.from_numpy(np.ascontiguousarray(v)) for k, v in stats.to_arrays().items()})
     metadata = {
         "format": FORMAT,
-        "recipe": json.dumps(recipe.model_dump(mode="json")),
-        "motion": json.dumps(motion),
-        "versions": json.dumps(versions()),
+        "recipe": _dumps(recipe.model_dump(mode="json")),
+        "motion": _dumps(motion),
+        "versions": _dumps(versions()),
         "step": str(step),
     }
+    if run is not None:
+        metadata["run"] = run
     _save(Path(path), tensors, metadata)
 
 
@@ -101,7 +160,7 @@ def load_checkpoint(path: str | Path) -> Checkpoint:
     except (KeyError, ValueError) as exc:
         raise CheckpointError(f"{path}: corrupt checkpoint metadata ({exc})") from None
     weights = {k[len("model.") :]: v for k, v in tensors.items() if k.startswith("model.")}
-    return Checkpoint(path, weights, stats, recipe, motion, found, step)
+    return Checkpoint(path, weights, stats, recipe, motion, found, step, meta.get("run"))
 
 
 def _diff(a: Any, b: Any, loc: str = "") -> list[str]:
@@ -139,8 +198,8 @@ def load_weights(model: torch.nn.Module, ckpt: Checkpoint) -> None:
     model.load_state_dict(ckpt.weights)
 
 
-def save_train_state(path: str | Path, optimizer: torch.optim.Optimizer, step: int) -> None:
-    """Optimizer and RNG state for an exact resume."""
+def save_train_state(path: str | Path, optimizer: torch.optim.Optimizer, step: int, run: str | None = None) -> None:
+    """Optimizer and RNG state for an exact resume, with the step and run id of the checkpoint it goes with."""
     tensors: dict[str, torch.Tensor] = {"rng.torch": torch.get_rng_state()}
     if torch.cuda.is_available():
         for i, state in enumerate(torch.cuda.get_rng_state_all()):
@@ -156,10 +215,24 @@ def save_train_state(path: str | Path, optimizer: torch.optim.Optimizer, step: i
     metadata = {
         "format": STATE_FORMAT,
         "step": str(step),
-        "param_groups": json.dumps(sd["param_groups"]),
-        "plain_state": json.dumps(plain),
+        "param_groups": _dumps(sd["param_groups"]),
+        "plain_state": _dumps(plain),
     }
+    if run is not None:
+        metadata["run"] = run
     _save(Path(path), tensors, metadata)
+
+
+def train_state_info(path: str | Path) -> tuple[int, str | None]:
+    """The step and run id a training state was saved at (its metadata only; no tensor is read)."""
+    path = Path(path)
+    meta = _metadata(path, "training state")
+    if meta.get("format") != STATE_FORMAT:
+        raise CheckpointError(f"{path}: not a dance training state")
+    try:
+        return int(meta["step"]), meta.get("run")
+    except (KeyError, ValueError):
+        raise CheckpointError(f"{path}: corrupt training state metadata (step)") from None
 
 
 def load_train_state(path: str | Path, optimizer: torch.optim.Optimizer | None) -> int:
