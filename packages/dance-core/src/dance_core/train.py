@@ -1,10 +1,19 @@
-"""The training loop: stages, AdamW, schedules, validation, JSONL log, checkpoints, exact resume."""
+"""The training loop: stages, AdamW, schedules, validation, JSONL log, checkpoints, exact resume.
+
+A run folder is locked while a run trains in it (``train.lock`` holding the pid); the model
+checkpoint and the training state are written as one output set and carry the same step and run id.
+"""
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
 import json
 import math
+import numbers
+import os
 import time
+from collections.abc import Iterator
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,7 +22,7 @@ import numpy as np
 import torch
 import yaml
 
-from dance_core.atomic import write_text
+from dance_core.atomic import OutputSet, pid_alive, sigterm_as_interrupt, sweep_stale_temps, write_text
 from dance_core.checkpoint import (
     check_matches,
     load_checkpoint,
@@ -21,12 +30,13 @@ from dance_core.checkpoint import (
     load_weights,
     save_checkpoint,
     save_train_state,
+    train_state_info,
 )
 from dance_core.data.features import FeatureStack
 from dance_core.data.prepare import dataset_sources, motion_info, to_clip
 from dance_core.data.sampling import SegmentSampler, split_clips
 from dance_core.data.stats import NormStats
-from dance_core.errors import CheckpointError, RecipeError, TrainingError
+from dance_core.errors import CheckpointError, DanceError, DataError, RecipeError, TrainingError
 from dance_core.model import ComposedModel, build_model
 from dance_core.protocols import TrainContext
 from dance_core.recipe.schema import Recipe, StageSpec
@@ -34,6 +44,11 @@ from dance_core.registry import get_registry
 from dance_core.runtime import pick_device, progress_bar, seed_everything
 
 MODEL_FILE, STATE_FILE, LOG_FILE = "model.safetensors", "state.safetensors", "log.jsonl"
+LOCK_FILE, RECIPE_FILE = "train.lock", "recipe.yaml"
+#: a lock file still empty after this many seconds was left by a process that died creating it
+EMPTY_LOCK_GRACE_S = 10.0
+
+_held_locks: set[Path] = set()
 
 
 @dataclass
@@ -51,6 +66,93 @@ class TrainResult:
 def run_dir_for(recipe: Recipe, out: str | None = None) -> Path:
     """The run folder: ``--out`` or ``training.output`` with ``{name}`` filled in."""
     return Path(out or recipe.training.output.format(name=recipe.name))
+
+
+def run_id(recipe: Recipe) -> str:
+    """The id a new run records in its checkpoints: a digest of the resolved recipe it starts from
+    (no clock, no path), so that the same run gives the same bytes and a state from another run is told apart."""
+    text = json.dumps(recipe.model_dump(mode="json"), sort_keys=True)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+
+
+def _lock_holder(path: Path) -> int | None:
+    try:
+        text = path.read_text(encoding="utf-8").strip()
+    except (FileNotFoundError, UnicodeDecodeError):
+        return None
+    return int(text) if text.isdigit() else None
+
+
+def _take_lock(path: Path) -> None:
+    for _ in range(3):
+        try:
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        except FileExistsError:
+            holder = _lock_holder(path)
+            if holder is None:
+                try:
+                    age = time.time() - path.stat().st_mtime
+                except FileNotFoundError:
+                    continue
+                if age < EMPTY_LOCK_GRACE_S:
+                    raise DanceError(f"{path.parent}: run folder is being locked by another dance train "
+                                     f"({path} is still empty); train into another folder (--out)") from None
+            elif holder != os.getpid() and pid_alive(holder):
+                raise DanceError(f"{path.parent}: run folder is in use by another dance train (pid {holder}, "
+                                 f"lock {path}); wait for it or train into another folder (--out)") from None
+            from dance_core.plugins import warn
+
+            if _lock_holder(path) != holder:  # another trainer took it over meanwhile: look again
+                continue
+            who = f"pid {holder}, no longer running" if holder is not None else "no pid"
+            warn(f"{path}: taking over a stale lock ({who})")
+            path.unlink(missing_ok=True)
+            continue
+        except IsADirectoryError:
+            raise DataError(f"{path}: is a folder; cannot lock the run folder") from None
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(f"{os.getpid()}\n")
+        return
+    raise DanceError(f"{path.parent}: could not lock the run folder ({path} keeps reappearing)")
+
+
+@contextlib.contextmanager
+def run_lock(run_dir: str | Path) -> Iterator[Path]:
+    """Hold the run folder's lock (``train.lock``, created with O_EXCL, holding this pid) while the
+    block runs; a second trainer gets one line naming the holder, a dead holder's lock is taken over
+    with a warning. Re-entrant within one process. Yields the lock file's path."""
+    run_dir = Path(run_dir)
+    if run_dir.exists() and not run_dir.is_dir():
+        raise DataError(f"{run_dir}: is a file, not a run folder")
+    run_dir.mkdir(parents=True, exist_ok=True)
+    path = (run_dir / LOCK_FILE).resolve()
+    if path in _held_locks:
+        yield path
+        return
+    with sigterm_as_interrupt():
+        _take_lock(path)
+        _held_locks.add(path)
+        try:
+            yield path
+        finally:
+            _held_locks.discard(path)
+            if _lock_holder(path) == os.getpid():
+                path.unlink(missing_ok=True)
+
+
+def check_stop_at(stop_at: int | None, total: int, start: int = 0) -> None:
+    """``stop_at`` must be a step after ``start`` and within the run's ``total`` steps."""
+    if stop_at is None:
+        return
+    if isinstance(stop_at, bool) or not isinstance(stop_at, numbers.Integral):
+        raise DanceError(f"stop_at: must be a whole number of steps, got {stop_at!r}")
+    stop_at = int(stop_at)
+    if stop_at <= 0:
+        raise DanceError(f"stop_at: must be a positive step, got {stop_at}")
+    if stop_at > total:
+        raise DanceError(f"stop_at: step {stop_at} is beyond the run's last step ({total}, training.steps)")
+    if stop_at <= start:
+        raise DanceError(f"stop_at: step {stop_at} is not after the step the run resumes from ({start})")
 
 
 def stage_at(stages: list[StageSpec], step: int) -> tuple[int, int]:
@@ -130,6 +232,7 @@ class Trainer:
         precision = self.t.precision
         self.precision = ("bf16" if self.device.type == "cuda" else "fp32") if precision == "auto" else precision
         self.scaler = torch.amp.GradScaler("cuda") if self.precision == "fp16" else None
+        self.run_id = run_id(recipe)
 
     def _optimizer(self, stage: StageSpec) -> torch.optim.Optimizer:
         opt = self.t.optimizer
@@ -162,10 +265,11 @@ class Trainer:
         return float(np.mean(losses))
 
     def save(self, step: int, optimizer: torch.optim.Optimizer) -> Path:
-        """Write the model checkpoint and the training state."""
+        """Write the model checkpoint and the training state as one output set (both or neither)."""
         path = self.run_dir / MODEL_FILE
-        save_checkpoint(path, self.model, self.stats, self.recipe, self.motion_info, step)
-        save_train_state(self.run_dir / STATE_FILE, optimizer, step)
+        with OutputSet() as out:
+            save_checkpoint(out.path(path), self.model, self.stats, self.recipe, self.motion_info, step, self.run_id)
+            save_train_state(out.path(self.run_dir / STATE_FILE), optimizer, step, self.run_id)
         return path
 
     def _log(self, record: dict) -> None:
@@ -175,10 +279,18 @@ class Trainer:
     def _resume(self) -> int:
         ckpt = load_checkpoint(self.run_dir / MODEL_FILE)
         check_matches(ckpt, self.recipe)
-        load_weights(self.model, ckpt)
         state_path = self.run_dir / STATE_FILE
         if not state_path.exists():
             raise CheckpointError(f"{state_path}: training state not found; cannot resume")
+        state_step, state_run = train_state_info(state_path)
+        if state_step != ckpt.step:
+            raise CheckpointError(f"{self.run_dir}: model checkpoint is at step {ckpt.step} but the training "
+                                  f"state at step {state_step}; they do not belong together, cannot resume")
+        if ckpt.run is not None and state_run is not None and state_run != ckpt.run:
+            raise CheckpointError(f"{self.run_dir}: model checkpoint (run {ckpt.run}) and training state "
+                                  f"(run {state_run}) come from different runs; cannot resume")
+        load_weights(self.model, ckpt)
+        self.run_id = ckpt.run or self.run_id
         return ckpt.step
 
     def _trim_log(self, step: int) -> None:
@@ -188,15 +300,23 @@ class Trainer:
             write_text(path, "".join(ln + "\n" for ln in lines))
 
     def run(self, resume: bool = False, stop_at: int | None = None) -> TrainResult:
-        """Train to the last step (or to ``stop_at``), continuing the run in the folder when ``resume``."""
-        self.run_dir.mkdir(parents=True, exist_ok=True)
+        """Train to the last step (or to ``stop_at``), continuing the run in the folder when ``resume``;
+        the run folder is locked meanwhile."""
+        check_stop_at(stop_at, self.total)
+        with run_lock(self.run_dir):
+            sweep_stale_temps(self.run_dir, [MODEL_FILE, STATE_FILE, LOG_FILE, RECIPE_FILE])
+            return self._run(resume, stop_at)
+
+    def _run(self, resume: bool, stop_at: int | None) -> TrainResult:
         start = 0
         if resume:
             start = self._resume()
+            check_stop_at(stop_at, self.total, start)
             self._trim_log(start)
         else:
+            self.run_id = run_id(self.recipe)
             (self.run_dir / LOG_FILE).unlink(missing_ok=True)
-        write_text(self.run_dir / "recipe.yaml", yaml.safe_dump(self.recipe.model_dump(mode="json"), sort_keys=False))
+        write_text(self.run_dir / RECIPE_FILE, yaml.safe_dump(self.recipe.model_dump(mode="json"), sort_keys=False))
         self.model.train()
         stage_index, _ = stage_at(self.stages, start)
         optimizer = self._optimizer(self.stages[stage_index])
@@ -211,7 +331,7 @@ class Trainer:
             task = None
             if bar:
                 task = bar.add_task(f"train {self.recipe.name}", total=self.total, completed=start, info="")
-            end = min(self.total, stop_at) if stop_at else self.total
+            end = self.total if stop_at is None else int(stop_at)
             for step in range(start, end):
                 index, local = stage_at(self.stages, step)
                 stage = self.stages[index]
@@ -281,5 +401,18 @@ class Trainer:
 def train(
     recipe: Recipe, out: str | None = None, resume: bool = False, quiet: bool = False, stop_at: int | None = None
 ) -> TrainResult:
-    """Train a recipe's model; the run folder holds checkpoint, state, log and resolved recipe."""
-    return Trainer(recipe, run_dir_for(recipe, out), quiet).run(resume=resume, stop_at=stop_at)
+    """Train a recipe's model; the run folder holds checkpoint, state, log and resolved recipe.
+
+    ``stop_at`` (a step in ``1..training.steps``) and the run folder's lock are checked before any
+    data is read; a folder this call created is removed again if the run fails before writing to it.
+    """
+    check_stop_at(stop_at, sum(s.steps for s in recipe.training.stage_list()))
+    run_dir = run_dir_for(recipe, out)
+    created = not run_dir.exists()
+    try:
+        with run_lock(run_dir):
+            return Trainer(recipe, run_dir, quiet).run(resume=resume, stop_at=stop_at)
+    except BaseException:
+        if created and run_dir.is_dir() and not any(run_dir.iterdir()):
+            run_dir.rmdir()
+        raise
