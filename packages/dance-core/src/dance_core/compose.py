@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from dance_core.atomic import write_text
+from dance_core.atomic import OutputSet
 from dance_core.checkpoint import Checkpoint, check_matches, load_checkpoint, load_weights
 from dance_core.data.features import FeatureStack, load_audio
 from dance_core.data.files import read_motion_file
@@ -127,54 +127,87 @@ def compose(
         raise RecipeError(f"{recipe._origin}: compose.texts: this model reads no text (features: {features}); "
                           "drop --text or use a recipe with a text feature such as tm2d-small")
     formats = [(entry, entry.build()) for entry in (registry.find("motion-format", f) for f in c.formats)]
+    stems = _output_stems(songs_in, c.samples)
     device = pick_device(c.device, c.threads)
     model, ckpt, stack = load_model(recipe, checkpoint, device)
     songs = [load_song(p, stack, ckpt, c.seconds, registry, c.texts) for p in songs_in]
     start = model.start_frames()
     seed = torch.from_numpy(seed_motion(_beside_recipe(c.seed_motion, recipe), ckpt, start, registry))
-    total = max(s.n_frames for s in songs)
+    motions = []
+    with progress_bar(quiet) as bar:
+        total = sum(s.n_frames for s in songs)
+        task = bar.add_task("compose", total=total, info=f"{len(songs)} song(s) × {c.samples}") if bar else None
+        done = 0
+        for song in songs:
+            progress = (lambda t, done=done: bar.update(task, completed=done + t)) if bar else None
+            motions.append(generate_song(model, song, seed, recipe, device, progress))
+            done += song.n_frames
+    out = Path(out_dir or c.out_dir)
+    with OutputSet() as files:  # every file of every dance, or none
+        for song, motion, names in zip(songs, motions, stems, strict=True):
+            for k, stem in enumerate(names):
+                values = ckpt.stats.motion.invert(motion[k, : song.n_frames])
+                data = decode_motion(ckpt.motion, values, recipe.fps, registry)
+                if c.ground and data.skeleton_motion is not None:
+                    data = grounded(data, ckpt.motion, registry)
+                data.meta["audio_path"] = song.path
+                for entry, fmt in formats:
+                    fmt.write(data, str(files.path(out / f"{stem}{_suffix(entry)}")))
+                if song.texts:  # the spans beside the dance, for dance evaluate (MPD at text starts)
+                    lines = "".join(f"{t.start:.4f}\t{t.end:.4f}\t{' '.join(t.text.split())}\n" for t in song.texts)
+                    files.path(out / f"{stem}.texts").write_text(lines, encoding="utf-8")
+        written = [p for p in files.targets() if p.suffix != ".texts"]
+    return written
+
+
+def generate_song(
+    model: ComposedModel, song: Song, seed: torch.Tensor, recipe: Recipe, device: torch.device,
+    progress=None,
+) -> np.ndarray:
+    """``compose.samples`` dances of one song, ``(samples, frames, D)`` normalized.
+
+    Each song is generated on its own, its samples as one batch, with the random generator seeded
+    from the recipe's seed: a song's dance does not depend on the other songs in the call.
+    """
+    c = recipe.compose
     streams = {
-        name: torch.from_numpy(
-            np.stack([_pad_to(s.streams[name], total) for s in songs for _ in range(c.samples)])
-        ).to(device)
-        for name in songs[0].streams
+        name: torch.from_numpy(np.ascontiguousarray(np.repeat(values[None], c.samples, axis=0))).to(device)
+        for name, values in song.streams.items()
     }
-    batch = len(songs) * c.samples
-    generation_threads(model, batch, device, c.threads)
+    generation_threads(model, c.samples, device, c.threads)
     generator = torch.Generator(device=device).manual_seed(recipe.seed)
     torch.manual_seed(recipe.seed)
-    with progress_bar(quiet) as bar:
-        task = bar.add_task("compose", total=total, info=f"{len(songs)} song(s) × {c.samples}") if bar else None
-        motion = model.generate(
-            streams,
-            total,
-            seed.unsqueeze(0).expand(batch, -1, -1).to(device),
-            temperature=c.temperature,
-            keep=c.keep,
-            generator=generator,
-            progress=(lambda t: bar.update(task, completed=t)) if bar else None,
-        )
+    motion = model.generate(
+        streams,
+        song.n_frames,
+        seed.unsqueeze(0).expand(c.samples, -1, -1).to(device),
+        temperature=c.temperature,
+        keep=c.keep,
+        generator=generator,
+        progress=progress,
+    )
     motion = motion.float().cpu().numpy()
     if not np.all(np.isfinite(motion)):
-        raise DanceError(f"{checkpoint}: the model produced NaN or inf motion; nothing was written")
-    out = Path(out_dir or c.out_dir)
-    written = []
-    for i, song in enumerate(songs):
-        for k in range(c.samples):
-            values = ckpt.stats.motion.invert(motion[i * c.samples + k, : song.n_frames])
-            data = decode_motion(ckpt.motion, values, recipe.fps, registry)
-            if c.ground and data.skeleton_motion is not None:
-                data = grounded(data, ckpt.motion, registry)
-            data.meta["audio_path"] = song.path
-            stem = song.name if c.samples == 1 else f"{song.name}-{k}"
-            for entry, fmt in formats:
-                path = out / f"{stem}{(entry.suffixes or ('.' + entry.name,))[0]}"
-                fmt.write(data, str(path))
-                written.append(path)
-            if song.texts:  # the spans beside the dance, for dance evaluate (MPD at text starts)
-                lines = "".join(f"{t.start:.4f}\t{t.end:.4f}\t{' '.join(t.text.split())}\n" for t in song.texts)
-                write_text(out / f"{stem}.texts", lines)
-    return written
+        raise DanceError(f"{song.path or song.name}: the model produced NaN or inf motion; nothing was written")
+    return motion
+
+
+def _suffix(entry) -> str:
+    return (entry.suffixes or ("." + entry.name,))[0]
+
+
+def _output_stems(paths: list[str], samples: int) -> list[list[str]]:
+    """Per song, the file stems of its samples; two songs that would write the same files are an error."""
+    seen: dict[str, str] = {}
+    stems = []
+    for path in paths:
+        name = Path(path).stem
+        if name in seen:
+            raise DataError(f"{path}: another song ({seen[name]}) has the same name; their dances would "
+                            "overwrite each other (rename one)")
+        seen[name] = str(path)
+        stems.append([name] if samples == 1 else [f"{name}-{k}" for k in range(samples)])
+    return stems
 
 
 def grounded(data: MotionData, info: dict, registry: Registry) -> MotionData:
@@ -196,9 +229,3 @@ def _beside_recipe(spec: str | None, recipe: Recipe) -> str | None:
         return spec
     beside = recipe.resolve_path(spec)
     return beside if Path(beside).exists() else spec
-
-
-def _pad_to(values: np.ndarray, n: int) -> np.ndarray:
-    if len(values) >= n:
-        return values[:n]
-    return np.concatenate([values, np.repeat(values[-1:], n - len(values), axis=0)])
