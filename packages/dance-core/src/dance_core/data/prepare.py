@@ -45,6 +45,7 @@ def encode_sources(recipe: Recipe, sources: list[ClipSource]) -> list[ClipSource
     ref = sources[0].motion.skeleton_motion.skeleton
     out = []
     for s in sources:
+        check_source_motion(s)
         motion = s.motion.skeleton_motion.conformed(ref, s.name)
         versions = [(s.name, motion.resample(recipe.fps))]
         if recipe.data is not None and recipe.data.mirror:
@@ -97,11 +98,56 @@ def encode_seed(info: dict[str, Any], motion: MotionData, registry: Registry) ->
     return MotionData(rep.encode(skel_motion), info["fps"], rep.channels(skeleton), motion.meta, skel_motion)
 
 
+def motion_file(source: ClipSource) -> str:
+    """The file a source's motion was read from; else the clip's name (and its music file)."""
+    path = source.motion.meta.get("path")
+    if path:
+        return str(path)
+    return f"clip {source.name!r}" + (f" (music {source.audio_path})" if source.audio_path else "")
+
+
+def check_finite(values: np.ndarray, where: str, what: str) -> None:
+    """One line naming ``where`` (a file) and ``what`` (motion, a feature stream) when ``values``
+    hold NaN or infinite numbers, with the first frame at fault."""
+    arr = np.asarray(values)
+    if arr.dtype.kind not in "fc" or arr.size == 0:
+        return
+    finite = np.isfinite(arr)
+    if finite.all():
+        return
+    bad = ~finite
+    frame = int(np.argwhere(bad)[0][0]) if arr.ndim else 0
+    kinds = " and ".join(k for k, hit in (("NaN", np.isnan(arr).any()), ("infinite", np.isinf(arr).any())) if hit)
+    raise DataError(f"{where}: {what} holds {kinds} values ({int(bad.sum())} of {arr.size}, first at frame "
+                    f"{frame}); fix or remove this file before training")
+
+
+def check_source_motion(source: ClipSource) -> None:
+    """A dataset source's motion (frame array and skeletal motion) must be finite."""
+    where = motion_file(source)
+    check_finite(source.motion.values, where, "motion")
+    skeletal = source.motion.skeleton_motion
+    if skeletal is not None:
+        for field in ("root", "rotations", "joint_positions"):
+            value = getattr(skeletal, field, None)
+            if value is not None:
+                check_finite(value, where, f"motion ({field.replace('_', ' ')})")
+
+
+def check_streams(source: ClipSource, streams: dict[str, np.ndarray]) -> None:
+    """Every feature stream of a source must be finite; an error names the music file and the stream."""
+    where = source.audio_path or source.name
+    for name, values in streams.items():
+        check_finite(values, str(where), f"feature stream {name!r}")
+
+
 def to_clip(source: ClipSource, stack: FeatureStack, registry: Registry) -> Clip:
     """Features for one source, cropped with its motion to a common frame count; motion at another
-    frame rate is low-pass filtered and resampled to the recipe's."""
+    frame rate is low-pass filtered and resampled to the recipe's. NaN or infinite motion or
+    features stop here, with one line naming the file and the stream."""
     motion = source.motion
     values = motion.values
+    check_finite(values, motion_file(source), "motion")
     if abs(motion.fps - stack.fps) > 1e-6:
         from dance_core.motion.resample import resample_array
 
@@ -109,6 +155,7 @@ def to_clip(source: ClipSource, stack: FeatureStack, registry: Registry) -> Clip
     cache_dir = source.meta.get("feature_cache")
     if cache_dir and source.audio_path is not None:
         streams = cached_features(source, stack, registry, cache_dir)
+        check_streams(source, streams)
         if streams:
             check_durations(source, len(values), len(next(iter(streams.values()))), stack.fps)
         n = min(len(values), *(len(v) for v in streams.values())) if streams else len(values)
@@ -120,6 +167,7 @@ def to_clip(source: ClipSource, stack: FeatureStack, registry: Registry) -> Clip
         check_durations(source, len(values), audio.n_frames(stack.fps), stack.fps)
     n = len(values) if audio is None else min(len(values), audio.n_frames(stack.fps))
     streams = stack.extract(n, audio, source.texts)
+    check_streams(source, streams)
     return Clip(source.name, values[:n], streams, source.meta.get("song", ""))
 
 

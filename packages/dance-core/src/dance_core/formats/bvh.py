@@ -25,10 +25,12 @@ def _fps(frame_time: float) -> float:
 
 
 class _Parser:
-    """A small recursive-descent parser over whitespace tokens of the HIERARCHY section."""
+    """A small recursive-descent parser over whitespace tokens of the HIERARCHY section; ``lines``
+    holds each token's line number, for errors."""
 
-    def __init__(self, path: Path, tokens: list[str]):
+    def __init__(self, path: Path, tokens: list[str], lines: list[int] | None = None):
         self.path, self.tokens, self.i = path, tokens, 0
+        self.lines = lines if lines is not None else [0] * len(tokens)
         self.names: list[str] = []
         self.parents: list[int] = []
         self.offsets: list[list[float]] = []
@@ -36,9 +38,13 @@ class _Parser:
         self.end_sites: dict[int, np.ndarray] = {}
 
     def fail(self, what: str):
-        raise DataError(f"{self.path}: BVH HIERARCHY: {what} (token {self.i})")
+        """Raise a one-line error naming the file and the line of the token at fault."""
+        at = min(max(self.i - 1, 0), len(self.tokens) - 1)
+        line = self.lines[at] if self.tokens else 0
+        raise DataError(f"{self.path}:{line}: BVH HIERARCHY: {what}")
 
     def take(self, expected: str | None = None) -> str:
+        """The next token (which must be ``expected``, case-insensitively, when given)."""
         if self.i >= len(self.tokens):
             self.fail(f"unexpected end, expected {expected or 'more'}")
         tok = self.tokens[self.i]
@@ -48,12 +54,21 @@ class _Parser:
         return tok
 
     def numbers(self, n: int) -> list[float]:
-        try:
-            return [float(self.take()) for _ in range(n)]
-        except ValueError:
-            self.fail("a number was expected")
+        """The next ``n`` tokens as finite numbers."""
+        out = []
+        for _ in range(n):
+            tok = self.take()
+            try:
+                value = float(tok)
+            except ValueError:
+                self.fail(f"a number was expected, found {tok!r}")
+            if not np.isfinite(value):
+                self.fail(f"{tok!r} is not a finite number")
+            out.append(value)
+        return out
 
     def joint(self, parent: int) -> None:
+        """One joint (name, offset, channels, children and End Site) and everything below it."""
         name = self.take()
         if name.upper() == "SITE":  # "End Site" reached through a misplaced keyword
             self.fail("End Site outside a joint")
@@ -64,7 +79,7 @@ class _Parser:
         self.take("OFFSET")
         self.offsets.append(self.numbers(3))
         chans: tuple[str, ...] = ()
-        if self.tokens[self.i].upper() == "CHANNELS":
+        if self.i < len(self.tokens) and self.tokens[self.i].upper() == "CHANNELS":
             self.take()
             try:
                 n = int(self.take())
@@ -91,35 +106,103 @@ class _Parser:
                 self.fail(f"unexpected {tok!r} in joint {name!r}")
 
 
+def _motion_line(lines: list[str]) -> int | None:
+    for i, line in enumerate(lines):
+        if line.strip().upper() == "MOTION":
+            return i
+    return None
+
+
+def _header_value(path: Path, lines: list[str], i: int, key: str, kind: type) -> float:
+    if i >= len(lines):
+        raise DataError(f"{path}:{i + 1}: BVH MOTION: file ends before the {key!r} line")
+    name, sep, value = lines[i].partition(":")
+    if not sep or " ".join(name.split()).lower() != key.lower():
+        raise DataError(f"{path}:{i + 1}: BVH MOTION: expected '{key}: ...', found {lines[i].strip()[:40]!r}")
+    try:
+        number = kind(value.strip())
+    except ValueError:
+        raise DataError(f"{path}:{i + 1}: BVH MOTION: {key} {value.strip()!r} is not a number") from None
+    if not np.isfinite(number):
+        raise DataError(f"{path}:{i + 1}: BVH MOTION: {key} {value.strip()!r} is not a finite number")
+    return number
+
+
+def _frame_rows(path: Path, lines: list[str], first: int, n_frames: int, n_ch: int) -> np.ndarray:
+    """``n_frames`` rows of ``n_ch`` finite numbers from line index ``first`` on (blank lines skipped);
+    an error names the line at fault."""
+    rows, numbers = [], []
+    for i in range(first, len(lines)):
+        if len(rows) == n_frames:
+            break
+        if not lines[i].strip():
+            continue
+        rows.append(i)
+        numbers.append(lines[i].split())
+    if len(rows) < n_frames:
+        raise DataError(f"{path}:{len(lines)}: BVH MOTION: {n_frames} frames of {n_ch} channels declared, "
+                        f"found {len(rows)} (the file ends early: truncated?)")
+    for i, row in zip(rows, numbers, strict=True):
+        if len(row) != n_ch:
+            raise DataError(f"{path}:{i + 1}: BVH MOTION: frame {rows.index(i)} has {len(row)} values, "
+                            f"the hierarchy declares {n_ch} channels")
+    try:
+        values = np.array(numbers, dtype=np.float64).reshape(n_frames, n_ch)
+    except ValueError:
+        for i, row in zip(rows, numbers, strict=True):
+            for tok in row:
+                try:
+                    float(tok)
+                except ValueError:
+                    raise DataError(f"{path}:{i + 1}: BVH MOTION: {tok[:20]!r} is not a number") from None
+        raise
+    bad = ~np.isfinite(values)
+    if bad.any():
+        frame, col = (int(x) for x in np.argwhere(bad)[0])
+        raise DataError(f"{path}:{rows[frame] + 1}: BVH MOTION: frame {frame} holds {numbers[frame][col]!r} "
+                        f"(value {col + 1}); frame data must be finite numbers")
+    return values
+
+
 def parse_bvh(path: str | Path, scale: float = 1.0) -> tuple[Skeleton, np.ndarray, list[str], float]:
-    """Skeleton, raw frame array ``(T, C)``, channel names and fps of a BVH file."""
+    """Skeleton, raw frame array ``(T, C)``, channel names and fps of a BVH file; a malformed,
+    truncated or non-finite file is a one-line error naming the file and line (``path:LINE: ...``)."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8", errors="replace")
     except FileNotFoundError:
         raise DataError(f"{path}: motion file not found") from None
-    head, sep, motion = text.partition("MOTION")
-    if not sep:
+    except IsADirectoryError:
+        raise DataError(f"{path}: is a folder, not a BVH file") from None
+    lines = text.splitlines()
+    at = _motion_line(lines)
+    if at is None:
         raise DataError(f"{path}: not a BVH file (no MOTION section)")
-    tokens = head.split()
+    tokens, token_lines = [], []
+    for i, line in enumerate(lines[:at]):
+        words = line.split()
+        tokens += words
+        token_lines += [i + 1] * len(words)
     if not tokens or tokens[0].upper() != "HIERARCHY":
         raise DataError(f"{path}: not a BVH file (no HIERARCHY)")
-    p = _Parser(path, tokens)
+    p = _Parser(path, tokens, token_lines)
     p.i = 1
     p.take("ROOT")
     p.joint(-1)
-    lines = motion.strip().splitlines()
-    try:
-        n_frames = int(lines[0].split(":")[1])
-        frame_time = float(lines[1].split(":")[1])
-        rows = [ln.split() for ln in lines[2 : 2 + n_frames] if ln.strip()]
-        values = np.array(rows, dtype=np.float64).reshape(len(rows), -1)
-    except (IndexError, ValueError):
-        raise DataError(f"{path}: BVH MOTION: bad Frames/Frame Time lines or non-numeric frame data") from None
+    if p.i < len(tokens):
+        p.i += 1
+        p.fail(f"unexpected {tokens[p.i - 1]!r} after the root joint")
+    first = at + 1
+    while first < len(lines) and not lines[first].strip():
+        first += 1
+    n_frames = int(_header_value(path, lines, first, "Frames", int))
+    frame_time = _header_value(path, lines, first + 1, "Frame Time", float)
+    if n_frames < 0:
+        raise DataError(f"{path}:{first + 1}: BVH MOTION: negative frame count {n_frames}")
+    if frame_time <= 0:
+        raise DataError(f"{path}:{first + 2}: BVH MOTION: frame time must be positive, got {frame_time:g}")
     n_ch = sum(len(c) for c in p.channels)
-    if len(rows) != n_frames or values.shape[1] != n_ch or frame_time <= 0:
-        raise DataError(f"{path}: BVH MOTION: {n_frames} frames of {n_ch} channels declared, "
-                        f"found {len(rows)} x {values.shape[1] if rows else 0} (frame time {frame_time})")
+    values = _frame_rows(path, lines, first + 2, n_frames, n_ch)
     skel = Skeleton(p.names, p.parents, np.array(p.offsets) * scale, p.channels,
                     {k: v * scale for k, v in p.end_sites.items()}, name=path.stem,
                     units="file" if scale == 1.0 else f"file x {scale:g}")
