@@ -131,4 +131,5 @@ def run(args: argparse.Namespace) -> int:
         console.print(f"[dim]note: {note}[/]")
     console.print(f"report: {out}")
     R.check_selected(report, args.metrics)
+    R.check_scored(report)  # nothing scored (e.g. every clip NaN): one line, exit 1
     return 0

@@ -68,6 +68,22 @@ def joint_positions(data: MotionData, where: str) -> tuple[np.ndarray, list[str]
     )
 
 
+def nonfinite_reason(positions: np.ndarray, names: list[str] | None = None) -> str | None:
+    """Where joint positions first hold NaN or inf (``"NaN at frame 12, joint 'Hips' (30 values)"``), or None."""
+    bad = ~np.isfinite(np.asarray(positions, dtype=np.float64))
+    if not bad.any():
+        return None
+    index = np.argwhere(bad)[0]
+    frame = int(index[0])
+    joint = ""
+    if len(index) > 1:
+        j = int(index[1])
+        joint = f", joint {names[j]!r}" if names and j < len(names) else f", joint {j}"
+    value = np.asarray(positions, dtype=np.float64)[tuple(index)]
+    kind = "NaN" if np.isnan(value) else "inf"
+    return f"{kind} at frame {frame}{joint} ({int(bad.sum())} non-finite values)"
+
+
 def load_clips(
     folder: str | Path,
     registry: Registry,
@@ -80,7 +96,9 @@ def load_clips(
     A sidecar ``NAME.texts`` beside ``NAME.ext`` (``start<TAB>end<TAB>sentence`` lines, as
     ``dance compose`` writes) puts its spans into ``meta["texts"]`` as ``(start, end, text)``.
     ``up`` overrides the up axis the format reports (``"y"`` or ``"z"``); ``on_file`` is called
-    before each file is read (progress display); ``suffixes`` restricts the files read.
+    before each file is read (progress display); ``suffixes`` restricts the files read. A clip whose
+    positions hold NaN or inf is kept with ``meta["unusable"]`` saying where; :func:`evaluate
+    <dance_core.evaluation.report.evaluate>` leaves it out and names it in the report.
     """
     clips = []
     for path in motion_files(Path(folder), registry, suffixes):
@@ -94,6 +112,9 @@ def load_clips(
         if axis == "z":
             positions = z_up_to_y_up(positions)
         meta: dict = {"path": str(path)}
+        reason = nonfinite_reason(positions, names)
+        if reason is not None:
+            meta["unusable"] = f"motion holds {reason}"
         sidecar = path.with_name(f"{path.stem}.texts")
         if sidecar.is_file():
             meta["texts"] = [(t.start, t.end, t.text) for t in read_texts(sidecar)]

@@ -15,12 +15,14 @@ from dance_core.registry import Registry, get_registry
 
 @dataclass
 class Report:
-    """Results by metric name, metrics that could not run (with the reason), and notes."""
+    """Results by metric name, metrics that could not run (with the reason), clips left out (with
+    the reason, keyed ``generated/NAME`` or ``reference/NAME``), and notes."""
 
     results: dict[str, MetricResult] = field(default_factory=dict)
     skipped: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     info: dict[str, Any] = field(default_factory=dict)
+    unusable: dict[str, str] = field(default_factory=dict)
 
     def values(self) -> dict[str, float]:
         """Every summary value of every metric that ran, in one flat dict."""
@@ -40,8 +42,13 @@ class Report:
                 for name, r in self.results.items()
             },
             "skipped": self.skipped,
+            "unusable_clips": self.unusable,
             "notes": self.notes,
         }
+
+    def scored(self) -> bool:
+        """True when at least one metric gave at least one finite value."""
+        return any(math.isfinite(v) for v in self.values().values())
 
 
 def _finite(values: dict[str, float]) -> dict[str, float | None]:
@@ -70,13 +77,23 @@ def evaluate(
     """Score ``generated`` with every named metric (default: all registered metrics).
 
     A metric whose needs are not met, or that raises a ``DataError``, is recorded in ``skipped``
-    with the reason instead of stopping the others.
+    with the reason instead of stopping the others. Clips marked ``meta["unusable"]`` (NaN or inf
+    positions, see :func:`~dance_core.evaluation.loading.load_clips`) are left out and listed in
+    ``unusable`` and the notes.
     """
     registry = registry or get_registry()
     names = list(names) if names else registry.names("metric")
     for name in names:
         registry.get("metric", name)  # unknown names fail before any work
     report = Report()
+    generated = _usable(generated, "generated", report)
+    reference = _usable(reference, "reference", report) if reference is not None else None
+    if not generated:
+        bad = [k.split("/", 1)[1] for k in report.unusable if k.startswith("generated/")]
+        why = f" ({_shorten(', '.join(bad), 200)} hold NaN or inf values)" if bad else ""
+        for name in names:
+            report.skipped[name] = f"no usable generated clip{why}"
+        return report
     has_music = any(c.music_beats is not None for c in generated)
     for name in names:
         if progress:
@@ -97,6 +114,40 @@ def evaluate(
         report.results[name] = result
         report.notes.extend(result.notes)
     return report
+
+
+def _usable(clips: Sequence[JointClip], label: str, report: Report) -> list[JointClip]:
+    """The clips without ``meta["unusable"]``; the others are recorded in the report."""
+    kept = []
+    for clip in clips:
+        reason = clip.meta.get("unusable")
+        if reason is None:
+            kept.append(clip)
+            continue
+        report.unusable[f"{label}/{clip.name}"] = reason
+        report.notes.append(f"{label} clip {clip.meta.get('path', clip.name)} left out: {reason}")
+    return kept
+
+
+def check_scored(report: Report) -> None:
+    """A DanceError when no metric gave a finite value (the CLI then exits non-zero), naming why:
+    the clips left out and the metrics skipped."""
+    if report.scored():
+        return
+    why = []
+    if report.unusable:
+        shown = ", ".join(report.unusable)
+        why.append(f"{len(report.unusable)} clip(s) hold NaN or inf values ({_shorten(shown)})")
+    reasons = sorted(set(report.skipped.values()))
+    if reasons:
+        why.append("metrics skipped: " + _shorten("; ".join(reasons)))
+    if report.results:
+        why.append(f"{', '.join(report.results)} gave only n/a")
+    raise DanceError("could score nothing: " + ("; ".join(why) or "no metric ran"))
+
+
+def _shorten(text: str, limit: int = 300) -> str:
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def write_json(report: Report, path) -> None:
