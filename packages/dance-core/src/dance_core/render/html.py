@@ -8,7 +8,10 @@ No CDN, no third-party script, no network reference: the page opens offline from
 from __future__ import annotations
 
 import base64
+import io
 import json
+import math
+import wave
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +20,11 @@ from scipy.signal import filtfilt
 from dance_core.atomic import write_text
 from dance_core.errors import DataError
 from dance_core.render.frames import bone_colors
+
+#: seconds of music embedded past the dance's last frame
+AUDIO_MARGIN_S = 1.0
+#: highest sample rate of embedded cut music (a preview player's speaker, not a master)
+PREVIEW_RATE = 22050
 
 AUDIO_TYPES = {".wav": "audio/wav", ".wave": "audio/wav", ".ogg": "audio/ogg", ".oga": "audio/ogg",
                ".mp3": "audio/mpeg", ".flac": "audio/flac", ".m4a": "audio/mp4", ".opus": "audio/ogg"}
@@ -167,9 +175,64 @@ def framing(positions: np.ndarray, fps: float) -> dict:
             "stature": max(stature, 1e-6), "body": max(stature, extent, 1e-6), "wander": wander}
 
 
+def wav_bytes(samples: np.ndarray, rate: int) -> bytes:
+    """Mono 16-bit PCM WAV of ``samples`` in [-1, 1]."""
+    pcm = np.clip(np.round(np.asarray(samples, np.float64) * 32768.0), -32768, 32767).astype("<i2")
+    buf = io.BytesIO()
+    with wave.open(buf, "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(int(rate))
+        w.writeframes(pcm.tobytes())
+    return buf.getvalue()
+
+
+def cut_music(samples: np.ndarray, rate: int, seconds: float) -> tuple[np.ndarray, int]:
+    """The first ``seconds`` of mono ``samples``, brought down to at most ``PREVIEW_RATE`` Hz."""
+    from scipy.signal import resample_poly
+
+    samples = np.asarray(samples, np.float32)[: max(1, math.ceil(seconds * rate))]
+    if rate > PREVIEW_RATE:
+        g = math.gcd(PREVIEW_RATE, int(rate))
+        samples = resample_poly(samples, PREVIEW_RATE // g, int(rate) // g).astype(np.float32)
+        rate = PREVIEW_RATE
+    return samples, int(rate)
+
+
+def embedded_audio(music: str | Path, seconds: float) -> tuple[str, bytes]:
+    """The MIME type and bytes the player embeds for a dance lasting ``seconds``: the music file
+    itself when it is no larger than its cut would be, else its first ``seconds`` +
+    ``AUDIO_MARGIN_S`` decoded and written as mono 16-bit WAV (at most ``PREVIEW_RATE`` Hz)."""
+    music = Path(music)
+    kind = AUDIO_TYPES.get(music.suffix.lower())
+    if kind is None:
+        raise DataError(f"{music}: cannot embed {music.suffix!r} audio (use {', '.join(sorted(AUDIO_TYPES))})")
+    if not music.is_file():
+        raise DataError(f"{music}: music file not found" if not music.exists() else f"{music}: not a music file")
+    keep = max(float(seconds), 0.0) + AUDIO_MARGIN_S
+    bound = 44 + 2 * math.ceil(keep * PREVIEW_RATE)  # the largest cut WAV
+    if music.stat().st_size <= bound:
+        return kind, music.read_bytes()
+    from dance_core.data.features import audio_reader_for
+    from dance_core.registry import get_registry
+
+    try:
+        audio = audio_reader_for(music, get_registry()).read(str(music))
+    except DataError as exc:
+        from dance_core.plugins import warn
+
+        warn(f"{music}: cannot cut the music to the dance, embedding the whole file ({exc})")
+        return kind, music.read_bytes()
+    cut = wav_bytes(*cut_music(audio.samples, audio.rate, keep))
+    if len(cut) >= music.stat().st_size:
+        return kind, music.read_bytes()
+    return "audio/wav", cut
+
+
 def player_html(positions: np.ndarray, parents: list[int], names: list[str], fps: float,
                 music: str | Path | None = None, title: str = "dance") -> str:
-    """The page's text: positions rounded to 1e-3 of the units, music as a base64 data URI."""
+    """The page's text: positions rounded to 1e-3 of the units, music as a base64 data URI holding
+    only the part the dance covers (see :func:`embedded_audio`)."""
     data = {
         "title": title, "fps": float(fps), "frames": int(len(positions)), "names": list(names),
         "parents": [int(p) for p in parents], "colors": bone_colors(list(names), list(parents)),
@@ -178,14 +241,8 @@ def player_html(positions: np.ndarray, parents: list[int], names: list[str], fps
     }
     audio = ""
     if music is not None:
-        music = Path(music)
-        kind = AUDIO_TYPES.get(music.suffix.lower())
-        if kind is None:
-            raise DataError(f"{music}: cannot embed {music.suffix!r} audio (use {', '.join(sorted(AUDIO_TYPES))})")
-        try:
-            payload = base64.b64encode(music.read_bytes()).decode("ascii")
-        except FileNotFoundError:
-            raise DataError(f"{music}: music file not found") from None
+        kind, raw = embedded_audio(music, len(positions) / float(fps))
+        payload = base64.b64encode(raw).decode("ascii")
         audio = f'<audio id="music" preload="auto" src="data:{kind};base64,{payload}"></audio>'
     blob = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     safe_title = title.replace("&", "&amp;").replace("<", "&lt;")
