@@ -279,6 +279,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
+    if argv is None:  # the ``dance`` process itself: SIGTERM cleans up like Ctrl-C for the whole command
+        from dance_core.atomic import install_sigterm_handler
+
+        install_sigterm_handler()
     try:
         return args.run(args) or 0
     except DanceError as exc:
@@ -290,9 +294,12 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # output piped into head, less...: stop quietly
         sys.stderr.close()
         return 0
-    except KeyboardInterrupt:
-        print("dance: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        from dance_core.atomic import Terminated
+
+        terminated = isinstance(exc, Terminated)
+        print(f"dance: {'terminated' if terminated else 'interrupted'}", file=sys.stderr)
+        return 143 if terminated else 130
     except (OSError, ValueError, MemoryError) as exc:  # not foreseen by a check: still one line
         if args.debug:
             raise
