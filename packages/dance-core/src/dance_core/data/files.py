@@ -27,7 +27,9 @@ def read_motion_file(path: str | Path, registry: Registry, fmt: str | None = Non
     if entry is None:
         known = ", ".join(motion_suffixes(registry))
         raise DataError(f"{path}: no motion format reads {path.suffix or 'files without a suffix'!r} ({known})")
-    return entry.build().read(str(path))
+    data = entry.build().read(str(path))
+    data.meta.setdefault("path", str(path))  # every format: errors about this motion can name its file
+    return data
 
 
 def motion_files(folder: Path, registry: Registry, only: list[str] | None = None) -> list[Path]:
