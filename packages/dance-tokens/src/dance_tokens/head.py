@@ -1,0 +1,250 @@
+"""The ``tm2d`` output head: TM2D's motion VQ-VAE, text encoder and shared causal motion decoder.
+
+A sequence head behind a song-level encoder (``tm2d-audio``): one step is one token, ``t`` frames.
+
+- Training, stage ``tokenizer_stage``: the VQ-VAE on random ``crop``-frame crops of each segment.
+  Any other stage: the frozen VQ-VAE tokenizes the segment, and the decoder is trained teacher-forced
+  with cross-entropy; a sample whose text stream holds a sentence takes the text branch
+  (cross-attention to that sentence), the others the music branch (cross-attention to the audio
+  memory, the encoder's latent at the token rate), both in one batch as the paper trains them.
+- Generation: ``init_state`` takes the song's audio memory, finds the text spans and encodes their
+  sentences, and lays the fusion weights over the tokens; each ``step`` samples one token from
+  ``h = w · h_text + (1 - w) · h_audio`` (final hidden states, before the projection), running the
+  text branch only where ``w > 0``; ``finish`` decodes all the tokens jointly.
+
+The text encoder lives in the head, not in an encoder or conditioner: its memory is a sentence's
+words, not a per-frame stream, and a step needs the sentence of the span it is in.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from dance_core import RecipeError, SongInputs, TrainContext
+from dance_tokens.fusion import fusion_weights, text_spans
+from dance_tokens.prior import CrossModalPrior
+from dance_tokens.rate import to_tokens, token_middles
+from dance_tokens.sampling import sample_top_k
+from dance_tokens.vqvae import MotionVQVAE
+
+
+@dataclass
+class TokenState:
+    """Generation state: tokens so far, the audio memory, and the text spans' memories and weights.
+
+    ``span_of (B, N)`` indexes ``text_memory`` per token (-1: no text), ``weight (B, N)`` is the fusion
+    weight. Without a song (a head stepped on its own), ``audio`` grows by one token per step."""
+
+    tokens: torch.Tensor
+    audio: torch.Tensor | None
+    grows: bool
+    span_of: torch.Tensor | None = None
+    weight: torch.Tensor | None = None
+    text_memory: torch.Tensor | None = None
+    text_mask: torch.Tensor | None = None
+
+
+class TM2DHead(nn.Module):
+    """``head.tokenizer.*`` (the VQ-VAE) and ``head.prior.*`` (text encoder, decoder): see the module."""
+
+    history_frames = 0
+    latent_tokens = None
+
+    def __init__(self, config, motion_dim: int, latent_dim: int):
+        super().__init__()
+        self.config = config
+        self.frames = self.keep = self.t = config.tokenizer.downsample
+        self.tokenizer = MotionVQVAE(motion_dim, config.tokenizer)
+        self.prior = CrossModalPrior(config.prior, config.tokenizer.codes, latent_dim, config.text_stream is not None)
+
+    # -- training
+
+    def loss(
+        self, latent: torch.Tensor, target: torch.Tensor, history: torch.Tensor, ctx: TrainContext
+    ) -> dict[str, torch.Tensor]:
+        """The VQ-VAE loss in the tokenizer stage, the decoder's cross-entropy in any other."""
+        if ctx.stage == self.config.tokenizer_stage:
+            return self.tokenizer.loss(self.crops(target, ctx.generator), ctx.generator)
+        return self.prior_loss(latent, target, ctx.streams)
+
+    def crops(self, target: torch.Tensor, generator: torch.Generator | None) -> torch.Tensor:
+        """A random ``tokenizer.crop``-frame crop of each segment ``(B, T, D)``."""
+        crop = self.config.tokenizer.crop
+        batch, length, _ = target.shape
+        if length < crop:
+            raise RecipeError(f"data.segment_frames ({length}) is shorter than model.head.tokenizer.crop ({crop})")
+        device = generator.device if generator is not None else target.device
+        starts = torch.randint(0, length - crop + 1, (batch,), generator=generator, device=device)
+        frames = starts.to(target.device)[:, None] + torch.arange(crop, device=target.device)
+        return target[torch.arange(batch, device=target.device)[:, None], frames]
+
+    def prior_loss(
+        self, latent: torch.Tensor, target: torch.Tensor, streams: dict[str, torch.Tensor] | None
+    ) -> dict[str, torch.Tensor]:
+        """Cross-entropy of the teacher-forced decoder on the frozen VQ-VAE's tokens of ``target``."""
+        n = target.shape[1] // self.t
+        if n == 0:
+            raise RecipeError(f"data.segment_frames ({target.shape[1]}) is shorter than a token ({self.t} frames)")
+        with torch.no_grad():
+            tokens = self.tokenizer.encode(target[:, : n * self.t])
+        sentences, has_text = self.sentences(streams, target.shape[0], target.device)
+        inputs = self.prior.inputs(tokens)
+        positions = torch.arange(n, device=target.device)
+        music = ~has_text
+        branches = []
+        if music.any():
+            audio = self.prior.audio(to_tokens(latent[music], self.t)[:, :n])
+            hidden = self.prior.hidden_audio(inputs[music], positions, audio, positions)
+            branches.append((music, self.prior.logits(hidden)))
+        if has_text.any():
+            memory, mask = self.prior.text(sentences[has_text])
+            hidden = self.prior.hidden_text(inputs[has_text], positions, memory, mask)
+            branches.append((has_text, self.prior.logits(hidden)))
+        logits = branches[0][1].new_empty(target.shape[0], n, self.config.tokenizer.codes)
+        for rows, values in branches:
+            logits[rows] = values
+        ce = F.cross_entropy(logits.flatten(0, 1), tokens.flatten(), reduction="none").view_as(tokens)
+        out = {"loss": ce.mean(), "accuracy": (logits.argmax(-1) == tokens).float().mean()}
+        if music.any():
+            out["ce_music"] = ce[music].mean().detach()
+        if has_text.any():
+            out["ce_text"] = ce[has_text].mean().detach()
+        return out
+
+    def text_ids(self, streams: dict[str, torch.Tensor] | None, strict: bool = True) -> torch.Tensor | None:
+        """The text stream's word-token ids ``(B, T, W)``, or None (music only, or no streams given).
+        A missing text stream is a recipe error when ``strict`` (training), else music only."""
+        name = self.config.text_stream
+        if name is None or streams is None or (name not in streams and not strict):
+            return None
+        if name not in streams:
+            raise RecipeError(f"model.head.text_stream: no feature stream {name!r} "
+                              f"(streams: {', '.join(streams) or 'none'}); set it to null for music only")
+        ids = streams[name].round().long()
+        if ids.numel() and int(ids.max()) >= self.config.prior.vocab_size:
+            raise RecipeError(f"model.head.prior.vocab_size ({self.config.prior.vocab_size}) is too small for "
+                              f"word id {int(ids.max())}: set it to at least the vocabulary's length")
+        return ids
+
+    def sentences(
+        self, streams: dict[str, torch.Tensor] | None, batch: int, device: torch.device
+    ) -> tuple[torch.Tensor | None, torch.Tensor]:
+        """Per sample, the sentence (id row) covering most of its frames, and whether it has one."""
+        ids = self.text_ids(streams)
+        has = torch.zeros(batch, dtype=torch.bool, device=device)
+        if ids is None:
+            return None, has
+        chosen = torch.zeros(batch, ids.shape[-1], dtype=torch.long, device=device)
+        for b in range(batch):
+            rows = ids[b][ids[b].ne(0).any(-1)]
+            if len(rows):
+                unique, counts = torch.unique(rows, dim=0, return_counts=True)
+                chosen[b], has[b] = unique[counts.argmax()], True
+        return chosen, has
+
+    # -- generation
+
+    def init_state(self, batch: int, generator: torch.Generator | None = None, song: SongInputs | None = None) -> Any:
+        """The song's audio memory, text spans, their encoded sentences and fusion weights."""
+        device = self.prior.project.weight.device
+        tokens = torch.zeros(batch, 0, dtype=torch.long, device=device)
+        if song is None:
+            return TokenState(tokens, None, grows=True)
+        audio = self.prior.audio(to_tokens(song.latent, self.t))
+        state = TokenState(tokens, audio, grows=False)
+        ids = self.text_ids(song.streams, strict=False)
+        if ids is not None:
+            self._lay_texts(state, ids[:, token_middles(ids.shape[1], self.t, audio.shape[1]).to(ids.device)])
+        return state
+
+    def _lay_texts(self, state: TokenState, rows: torch.Tensor) -> None:
+        """Fill the state's spans from the text rows at the token rate ``(B, N, W)``."""
+        batch, n, _ = rows.shape
+        span_of = torch.full((batch, n), -1, dtype=torch.long, device=rows.device)
+        weight = torch.zeros(batch, n, dtype=torch.float64, device=rows.device)
+        sentences = []
+        for b in range(batch):
+            for start, end in text_spans(rows[b]):
+                span_of[b, start:end] = len(sentences)
+                weight[b, start:end] = fusion_weights(end - start, self.config.fusion, self.config.ramp)
+                sentences.append(rows[b, start])
+        if sentences:
+            state.text_memory, state.text_mask = self.prior.text(torch.stack(sentences))
+            state.span_of, state.weight = span_of, weight
+
+    def step(
+        self,
+        latent: torch.Tensor,
+        history: torch.Tensor,
+        state: TokenState | None,
+        temperature: float = 1.0,
+        generator: torch.Generator | None = None,
+    ) -> tuple[torch.Tensor, TokenState]:
+        """Sample the next token; its frames are the last ``t`` of the VQ-VAE decoding so far."""
+        if state is None:
+            state = self.init_state(latent.shape[0], generator)
+        if state.grows:
+            new = self.prior.audio(to_tokens(latent, self.t)[:, :1])
+            state.audio = new if state.audio is None else torch.cat([state.audio, new], dim=1)
+        i = state.tokens.shape[1]
+        bos = state.tokens.new_full((state.tokens.shape[0], 1), self.prior.bos)
+        seq = torch.cat([bos, state.tokens], dim=1)
+        context = self.config.prior.context
+        if context is not None:
+            seq = seq[:, -context:]
+        positions = torch.arange(i + 1 - seq.shape[1], i + 1, device=seq.device)
+        audio, audio_positions = self._audio_window(state.audio, positions)
+        hidden = self.prior.hidden_audio(seq, positions, audio, audio_positions)[:, -1]
+        if state.weight is not None and i < state.weight.shape[1]:
+            w = state.weight[:, i]
+            rows = (w > 0).nonzero().flatten()
+            if len(rows):  # the text branch runs only where the text weighs, and draws no random numbers
+                span = state.span_of[rows, i]
+                text = self.prior.hidden_text(seq[rows], positions, state.text_memory[span],
+                                              state.text_mask[span])[:, -1]
+                wr = w[rows, None].to(hidden.dtype)
+                hidden = hidden.clone()
+                hidden[rows] = wr * text + (1 - wr) * hidden[rows]
+        token = sample_top_k(self.prior.logits(hidden), self.config.top_k, temperature, generator)
+        state.tokens = torch.cat([state.tokens, token[:, None]], dim=1)
+        past, _ = self.tokenizer.receptive_field()
+        frames = self.tokenizer.decode(state.tokens[:, -(past + 1) :])[:, -self.t :]
+        return frames, state
+
+    def _audio_window(self, audio: torch.Tensor, positions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """The audio tokens the queries at ``positions`` can reach, and their positions."""
+        radius, last = self.config.prior.radius, audio.shape[1]
+        lo, hi = 0, last
+        if radius is not None:
+            lo = max(0, min(int(positions[0]) - radius, last - 1))
+            hi = min(last, int(positions[-1]) + radius + 1)
+        return audio[:, lo:hi], torch.arange(lo, hi, device=audio.device)
+
+    def finish(self, motion: torch.Tensor, state: TokenState) -> torch.Tensor:
+        """Motion ``(B, n, D)`` with its generated frames replaced by the joint decoding of every token
+        (frames before ``n - t · tokens``, none when generation starts at frame 0 as it does here, kept)."""
+        if state is None or state.tokens.shape[1] == 0:
+            return motion
+        decoded = self.tokenizer.decode(state.tokens).to(motion.dtype)
+        n = motion.shape[1]
+        start = max(0, n - decoded.shape[1])
+        out = motion.clone()
+        out[:, start:] = decoded[:, : n - start]
+        return out
+
+
+def build(config, *, motion_dim: int, latent_dim: int, window=None, cond_dims=None, **_: Any) -> TM2DHead:
+    """Build the ``tm2d`` head; it needs a song-level encoder (``tm2d-audio``: one latent per frame)."""
+    if window is not None and not window.song_level:
+        raise ValueError("needs a song-level encoder such as tm2d-audio (one latent per frame), got a windowed one")
+    name = config.text_stream
+    if cond_dims is not None and name is not None and name not in cond_dims:
+        raise ValueError(f"text_stream: the features have no stream {name!r} (streams: "
+                         f"{', '.join(cond_dims) or 'none'}); add word-tokens under features.{name} or set "
+                         "model.head.text_stream: null for music only")
+    return TM2DHead(config, motion_dim, latent_dim)

@@ -1,0 +1,153 @@
+"""The tm2d head and tm2d-audio encoder: core's contract checks, both training stages and branches, and
+generation with late fusion (music-only before a text span, bit for bit; the text inside it)."""
+
+import pytest
+import torch
+
+from dance_core import RecipeError, SongInputs, TrainContext, Window
+from dance_core.testing import check_encoder, check_head
+
+SONG = Window(0, None, 0)
+
+
+def test_head_and_encoder_pass_the_contract_checks(registry, tiny_head, tiny_encoder):
+    head = check_head("tm2d", tiny_head, window=SONG, length=32, motion_dim=6, latent_dim=16)
+    assert (head.frames, head.keep, head.history_frames, head.latent_tokens) == (8, 8, 0, None)
+    check_head("tm2d", {**tiny_head, "text_stream": None}, window=SONG, length=16)
+    encoder = check_encoder("tm2d-audio", tiny_encoder, cond_dims={"music": 5, "beat": 2, "text": 4}, frames=37)
+    assert encoder.streams == ["beat", "music"]  # the text stream is the head's
+    assert encoder.window.song_level and encoder.out_dim == 32
+
+
+def test_defaults_are_the_papers(registry):
+    head = registry.create("head", "tm2d", {}, _context())
+    c = head.config
+    assert (c.tokenizer.downsample, c.tokenizer.codes, c.tokenizer.crop, c.tokenizer.beta) == (8, 1024, 64, 0.25)
+    assert (c.prior.dim, c.prior.layers, c.prior.text_layers, c.prior.heads) == (512, 6, 6, 8)
+    assert (c.top_k, c.fusion, c.ramp, c.tokenizer.restart_after) == (100, 0.8, 0.2, None)
+
+
+def _context(latent_dim=16, window=SONG):
+    from dance_core import HeadContext
+
+    return HeadContext(motion_dim=6, latent_dim=latent_dim, latent_tokens=None, window=window)
+
+
+def test_build_refuses_a_windowed_encoder_and_a_missing_text_stream(registry, tiny_head):
+    with pytest.raises(Exception, match="needs a song-level encoder"):
+        registry.create("head", "tm2d", tiny_head, _context(window=Window(4, 4, 2)))
+    from dance_tokens.head import build
+
+    config = registry.get("head", "tm2d").config_for(tiny_head)
+    with pytest.raises(ValueError, match="no stream 'text'.*text_stream: null"):
+        build(config, motion_dim=6, latent_dim=16, window=SONG, cond_dims={"music": 5})
+    head = registry.create("head", "tm2d", tiny_head, _context())
+    streams = {"music": torch.zeros(2, 16, 5)}
+    ctx = TrainContext(0, 0, "prior", generator=torch.Generator().manual_seed(0), streams=streams)
+    with pytest.raises(RecipeError, match="model.head.text_stream: no feature stream 'text'"):
+        head.loss(torch.randn(2, 16, 16), torch.randn(2, 16, 6), torch.zeros(2, 0, 6), ctx)
+
+
+def test_tokenizer_stage_trains_the_vqvae_on_crops_and_reports_usage(registry, tiny_head):
+    head = registry.create("head", "tm2d", tiny_head, _context())
+    ctx = TrainContext(0, 0, "tokenizer", generator=torch.Generator().manual_seed(0))
+    out = head.loss(torch.randn(3, 40, 16), torch.randn(3, 40, 6), torch.zeros(3, 0, 6), ctx)
+    assert {"loss", "recon", "usage", "perplexity"} <= set(out)
+    out["loss"].backward()
+    assert all(p.grad is None for p in head.prior.parameters())
+    assert any(p.grad is not None for p in head.tokenizer.parameters())
+    with pytest.raises(RecipeError, match=r"data.segment_frames \(8\) is shorter than model.head.tokenizer.crop"):
+        head.loss(torch.randn(3, 8, 16), torch.randn(3, 8, 6), torch.zeros(3, 0, 6), ctx)
+
+
+def test_prior_stage_trains_both_branches_in_one_batch(registry, tiny_head):
+    head = registry.create("head", "tm2d", tiny_head, _context())
+    text = torch.zeros(4, 32, 5)
+    text[2, 3:30] = torch.tensor([1.0, 7, 9, 2, 0])  # sample 2 holds a sentence (for most of its frames)
+    text[3, :] = torch.tensor([1.0, 8, 2, 0, 0])
+    latent = torch.randn(4, 32, 16, requires_grad=True)
+    ctx = TrainContext(0, 0, "prior", generator=torch.Generator().manual_seed(0), streams={"text": text})
+    out = head.loss(latent, torch.randn(4, 32, 6), torch.zeros(4, 0, 6), ctx)
+    assert {"loss", "accuracy", "ce_music", "ce_text"} <= set(out)
+    out["loss"].backward()
+    assert latent.grad[:2].abs().sum() > 0 and latent.grad[2:].abs().sum() == 0  # music rows read the audio
+    assert all(p.grad is None for p in head.tokenizer.parameters())  # the VQ-VAE is frozen here
+    assert head.prior.text.embed.weight.grad[[7, 8, 9]].abs().sum() > 0
+    sentences, has = head.sentences({"text": text.long()}, 4, torch.device("cpu"))
+    assert has.tolist() == [False, False, True, True] and sentences[2].tolist() == [1, 7, 9, 2, 0]
+    text[0, 0, 1] = 40
+    with pytest.raises(RecipeError, match=r"vocab_size \(40\) is too small for word id 40"):
+        head.loss(latent, torch.randn(4, 32, 6), torch.zeros(4, 0, 6), ctx)
+
+
+def generate(head, latent, text, temperature=1.0, seed=3):
+    """Drive the head as core's ComposedModel.generate does: init_state, a step per token, finish."""
+    n = latent.shape[1] - head.frames  # core pads the song's streams by the head's frames
+    batch = latent.shape[0]
+    gen = torch.Generator().manual_seed(seed)
+    out = torch.zeros(batch, n, 6)
+    with torch.inference_mode():
+        state = head.init_state(batch, gen, song=SongInputs(latent, {"text": text}))
+        t = 0
+        while t < n:
+            frames, state = head.step(latent[:, t : t + head.frames], out[:, :0], state, temperature, gen)
+            k = min(head.keep, n - t)
+            out[:, t : t + k] = frames[:, :k]
+            t += k
+        return head.finish(out, state), state.tokens
+
+
+@pytest.fixture
+def song_head(registry, tiny_head):
+    torch.manual_seed(0)
+    return registry.create("head", "tm2d", {**tiny_head, "top_k": 8}, _context()).eval()
+
+
+def test_before_a_text_span_the_dance_is_the_music_only_dance_bit_for_bit(song_head):
+    head = song_head
+    frames = 8 * 30 + 5  # a last partial token
+    latent = torch.randn(2, frames + 8, 16, generator=torch.Generator().manual_seed(5))
+    silent = torch.zeros(2, frames + 8, 5)
+    spoken = silent.clone()
+    spoken[0, 8 * 12 : 8 * 22] = torch.tensor([1.0, 7, 9, 2, 0])  # tokens 12-21 of the first dance only
+    plain, plain_tokens = generate(head, latent, silent)
+    fused, fused_tokens = generate(head, latent, spoken)
+    assert plain.shape == fused.shape == (2, frames, 6) and plain_tokens.shape == (2, 31)
+    assert torch.equal(fused_tokens[1], plain_tokens[1]) and torch.equal(fused[1], plain[1])  # no text there
+    assert torch.equal(fused_tokens[0, :12], plain_tokens[0, :12])  # before the span: music only, bit for bit
+    assert not torch.equal(fused_tokens[0, 12:22], plain_tokens[0, 12:22])  # the text changes the span
+    first = int((fused_tokens[0] != plain_tokens[0]).nonzero()[0])
+    assert first >= 12
+    boundary = head.tokenizer.first_frame_reached(first)
+    assert torch.equal(fused[0, :boundary], plain[0, :boundary])  # frames the changed token cannot reach
+    assert not torch.equal(fused[0, boundary], plain[0, boundary])  # and the first it can
+    again, again_tokens = generate(head, latent, spoken)
+    assert torch.equal(again, fused) and torch.equal(again_tokens, fused_tokens)  # a seed gives one dance
+
+
+def test_text_branch_runs_only_where_the_text_weighs(song_head, monkeypatch):
+    head = song_head
+    latent = torch.randn(1, 8 * 20 + 8, 16)
+    text = torch.zeros(1, 8 * 20 + 8, 5)
+    text[0, 8 * 5 : 8 * 15] = torch.tensor([1.0, 7, 2, 0, 0])
+    calls = []
+    original = head.prior.hidden_text
+    def counted(seq, positions, *rest):
+        calls.append(int(positions[-1]))
+        return original(seq, positions, *rest)
+
+    monkeypatch.setattr(head.prior, "hidden_text", counted)
+    _, tokens = generate(head, latent, text, temperature=0.0)
+    assert calls == list(range(5, 15))  # the span's ten tokens, every one of them weighted
+    state = head.init_state(1, None, song=SongInputs(latent, {"text": text}))
+    assert state.span_of[0].tolist() == [-1] * 5 + [0] * 10 + [-1] * 6
+    assert state.weight[0, 5:15].max() == head.config.fusion and state.weight[0, 15:].abs().sum() == 0
+    music_only = head.init_state(1, None, song=SongInputs(latent, {}))  # no text stream: music only
+    assert music_only.weight is None
+
+
+def test_finish_decodes_all_tokens_jointly(song_head):
+    latent = torch.randn(1, 8 * 6 + 8, 16)
+    motion, tokens = generate(song_head, latent, torch.zeros(1, 8 * 6 + 8, 5))
+    with torch.no_grad():
+        torch.testing.assert_close(motion, song_head.tokenizer.decode(tokens)[:, : 8 * 6], rtol=0, atol=0)
