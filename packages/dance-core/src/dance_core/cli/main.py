@@ -179,7 +179,12 @@ def _synth_parser(sub) -> None:
     p.add_argument("--music", nargs="+", metavar="SONG",
                    help="with --out: choreograph the dancer to these songs (files or folders) instead")
     p.add_argument("--dances", type=bounded_number(int, 1, 1000), default=1, metavar="N",
-                   help="with --music: dances per song, 1-1000")
+                   help="dances per song, 1-1000 (with --out: one dancer each, see --dancers)")
+    p.add_argument("--dancers", nargs="+", metavar="NAME",
+                   help="with --out: the dancers (classic, bouncer, glider, hitter, popper, wanderer, or all; "
+                   "default classic, the dances of before), a different one per dance of a song")
+    p.add_argument("--homogeneous", action="store_true",
+                   help="with --out: the control set: every dance by the first dancer, one style, one fixed routine")
     p.add_argument("--tracker", choices=["librosa", "madmom", "auto"], default="librosa",
                    help="with --music: beat tracker (madmom's model files are non-commercial)")
     p.add_argument("--fps", type=bounded_number(float, 0.0, 1000.0, above=True), default=60.0,

@@ -10,7 +10,7 @@ from dance_core.config import ComponentConfig
 
 
 class SyntheticDanceConfig(ComponentConfig):
-    """Songs, their length and tempo range, dances per song, and the dancer's frame rate."""
+    """Songs, their length and tempo range, dances per song and their dancers, and the dancer's frame rate."""
 
     songs: PositiveInt = 24
     seconds: PositiveFloat = 30.0
@@ -23,6 +23,20 @@ class SyntheticDanceConfig(ComponentConfig):
         None, description="dance to the beats this tracker hears (the registered 'beats' extractor) instead of "
         "the true beats: the tempo octave a model reading that tracker's features will hear in real songs"
     )
+    dancers: list[str] | None = Field(
+        default_factory=lambda: ["classic"],
+        description="dancers of the dances (names of synth_dance.DANCERS), a different one per dance of a song "
+        "as far as they go; None: all (the multimodal set); default the classic dancer alone (the dances of before)",
+    )
+    homogeneous: bool = Field(False, description="the control set: every dance by the first dancer, in one style "
+                              "and one fixed routine (a song's dances are then the same)")
+
+    @field_validator("dancers")
+    @classmethod
+    def _dancers(cls, v: list[str] | None) -> list[str] | None:
+        from dance_core.data.synth_dance import dancer_names
+
+        return None if v is None else dancer_names(v)
 
 
 class FolderDatasetConfig(ComponentConfig):

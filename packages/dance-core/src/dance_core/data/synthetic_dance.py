@@ -1,8 +1,12 @@
 """The ``synthetic-dance`` dataset and ``dance synth``: songs with a beat-locked SMPL dancer.
 
-Deterministic from the seed: song ``i`` draws its music from ``(seed, i)`` and dance ``k`` of it its
-moves and style from ``(seed, i, k)``, so the same music comes with several dances. ``dance synth
---music`` choreographs the same dancer to real songs instead (:mod:`dance_core.data.choreograph`).
+Deterministic from the seed: song ``i`` draws its music from ``(seed, i)``, the order of its dancers
+from ``(seed, i, 2)`` and dance ``k`` of it its moves and style from ``(seed, i, 1, k)``, so the same
+music comes with several dances, by different dancers when ``dancers`` names several
+(:data:`~dance_core.data.synth_dance.DANCERS`; the default, the classic dancer alone, gives the dances
+of before the profiles existed, bit for bit). ``homogeneous`` is the control set: one dancer, one style,
+one fixed routine. ``dance synth --music`` choreographs the classic dancer to real songs instead
+(:mod:`dance_core.data.choreograph`).
 """
 
 from __future__ import annotations
@@ -15,20 +19,31 @@ import numpy as np
 
 from dance_core.data.beat_grid import BeatGrid
 from dance_core.data.sources import ClipSource
-from dance_core.data.synth_dance import Style, choose_moves, dance
+from dance_core.data.synth_dance import CLASSIC, dancer_names, perform_dance
 from dance_core.data.synth_music import synthesize
 from dance_core.media import Audio
 from dance_core.protocols import MotionData
 
 
 def make_clip(index: int, *, seed: int, seconds: float, bpm: tuple[float, float], rate: int, fps: float,
-              dances_per_song: int = 1, tracker: str | None = None) -> ClipSource:
+              dances_per_song: int = 1, tracker: str | None = None, dancers: list[str] | None = (CLASSIC,),
+              homogeneous: bool = False) -> ClipSource:
     """Clip ``index``: song ``index // dances_per_song`` with dance ``index % dances_per_song``.
 
     The dancer follows the song's true beats, or with ``tracker`` the beats that tracker hears (what a
-    model reading that tracker's beat features will hear in real songs: the same tempo octave).
+    model reading that tracker's beat features will hear in real songs: the same tempo octave). Dance
+    ``k`` of a song is danced by ``dancers`` (names of :data:`~dance_core.data.synth_dance.DANCERS`,
+    ``None``: all) in an order drawn per song, so the dances of one song have different dancers as far as
+    there are dancers; ``homogeneous``: every dance by the first dancer in its one style and fixed
+    routine (the control set: dances of one song are then the same).
     """
     song_i, dance_i = divmod(index, dances_per_song)
+    names = dancer_names(None if dancers is None else list(dancers))
+    if homogeneous:
+        dancer = names[0]
+    else:
+        order = np.random.default_rng([seed, song_i, 2]).permutation(len(names)) if len(names) > 1 else [0]
+        dancer = names[order[dance_i % len(names)]]
     music_rng = np.random.default_rng([seed, song_i, 0])
     song = synthesize(seconds, float(music_rng.uniform(*bpm)), rate, music_rng)
     audio = Audio(song.audio, rate)
@@ -44,11 +59,9 @@ def make_clip(index: int, *, seed: int, seconds: float, bpm: tuple[float, float]
     sections = [(name, bar_of(a), bar_of(b)) for name, a, b in song.sections]
     sections = [(n, max(a, 0), b) for n, a, b in sections if b > max(a, 0)] or [("verse", 0, grid.bars(seconds))]
     dance_rng = np.random.default_rng([seed, song_i, 1, dance_i])
-    moves = choose_moves(sections, dance_rng)
-    moves += moves[-1:] * max(0, grid.bars(seconds) - len(moves))
-    motion, texts = dance(grid, moves, seconds, fps, Style.draw(dance_rng))
+    motion, texts = perform_dance(dancer, grid, sections, seconds, fps, dance_rng, homogeneous)
     name = f"synth-{song_i:04d}" + (f"-{dance_i}" if dances_per_song > 1 else "")
-    meta = _grid_meta(grid, song.sections, song.style)
+    meta = {**_grid_meta(grid, song.sections, song.style), "dancer": dancer}
     return ClipSource(name, _motion_data(motion, meta), audio, texts=texts, meta=meta)
 
 
@@ -94,7 +107,8 @@ class SyntheticDance:
         """One clip."""
         c = self.config
         return make_clip(index, seed=c.seed, seconds=c.seconds, bpm=tuple(c.bpm), rate=c.sample_rate,
-                         fps=self.fps, dances_per_song=c.dances_per_song, tracker=c.dance_to_tracker)
+                         fps=self.fps, dances_per_song=c.dances_per_song, tracker=c.dance_to_tracker,
+                         dancers=c.dancers, homogeneous=c.homogeneous)
 
     def clips(self) -> list[ClipSource]:
         """Every song times every dance."""
@@ -108,7 +122,8 @@ def build(config: Any, *, fps: float, **_: Any) -> SyntheticDance:
 
 def write_clip(out: Path, clip: ClipSource) -> list[Path]:
     """Write ``name.wav``, ``name.bvh``, ``name.beats`` (time, beat in bar), ``name.texts`` (start, end,
-    sentence) and ``name.sections`` (start, end, section; tempo and style in a comment) into ``out``."""
+    sentence) and ``name.sections`` (start, end, section; tempo, style and any dancer but the classic one
+    in a comment) into ``out``."""
     from dance_core.atomic import write_text
     from dance_core.components.wav import write_wav
     from dance_core.formats.bvh import BvhFormat
@@ -127,7 +142,11 @@ def write_clip(out: Path, clip: ClipSource) -> list[Path]:
     write_text(base.with_suffix(".beats"),
                "".join(f"{b:.4f}\t{(i - first) % per_bar + 1}\n" for i, b in enumerate(beats)))
     write_text(base.with_suffix(".texts"), "".join(f"{t.start:.4f}\t{t.end:.4f}\t{t.text}\n" for t in clip.texts))
-    head = f"# bpm {clip.meta['bpm']:.4f} style {clip.meta['style']}\n"
+    dancer = clip.meta.get("dancer", CLASSIC)
+    head = f"# bpm {clip.meta['bpm']:.4f} style {clip.meta['style']}"
+    if dancer != CLASSIC:  # the files of the classic dancer stay as they were before dancer profiles
+        head += f" dancer {dancer}"
+    head += "\n"
     rows = "".join(f"{a:.4f}\t{b:.4f}\t{n}\n" for n, a, b in clip.meta["sections"])
     write_text(base.with_suffix(".sections"), head + rows)
     return [song] + [base.with_suffix(s) for s in (".bvh", ".beats", ".texts", ".sections")]
@@ -156,10 +175,11 @@ def _write_one(args: tuple) -> str:
 
 def write_dataset(out: str | Path, songs: int, seed: int = 0, seconds: float = 60.0, fps: float = 60.0,
                   bpm: tuple[float, float] = (80.0, 140.0), rate: int = 22050, dances_per_song: int = 1,
-                  jobs: int = 1) -> list[str]:
-    """Write a whole synthetic dataset (in ``jobs`` processes); returns the clip names."""
+                  jobs: int = 1, dancers: list[str] | None = (CLASSIC,), homogeneous: bool = False) -> list[str]:
+    """Write a whole synthetic dataset (in ``jobs`` processes; dancers as in :func:`make_clip`); returns the
+    clip names."""
     kwargs = {"seed": seed, "seconds": seconds, "bpm": bpm, "rate": rate, "fps": fps,
-              "dances_per_song": dances_per_song}
+              "dances_per_song": dances_per_song, "dancers": dancers, "homogeneous": homogeneous}
     work = [(str(out), i, kwargs) for i in range(songs * dances_per_song)]
     if jobs <= 1:
         return [_write_one(w) for w in work]
@@ -203,10 +223,15 @@ def write_music_dances(out: str | Path, music: list[str], dances: int, seed: int
 
 
 def synth_command(args: Any) -> int:
-    """``dance synth --out DIR --songs N --seed S`` (or ``--music SONGS``): write a dataset, say where."""
+    """``dance synth --out DIR --songs N --seed S [--dances K --dancers NAME... --homogeneous]`` (or
+    ``--music SONGS``): write a dataset, say where. ``--dancers all`` names every dancer."""
     from dance_core.errors import DanceError
 
+    dancers = args.dancers or [CLASSIC]
+    homogeneous = bool(args.homogeneous)
     if args.music:
+        if dancers != [CLASSIC] or homogeneous:
+            raise DanceError("synth: --dancers and --homogeneous are for synthetic songs (--songs), not --music")
         if not (1 <= args.dances <= 1000) or args.fps <= 0:
             raise DanceError("synth: need 1 <= --dances <= 1000 and --fps > 0")
         names = write_music_dances(args.out_dir, args.music, args.dances, args.seed, args.fps, args.tracker)
@@ -215,7 +240,12 @@ def synth_command(args: Any) -> int:
     seconds = 60.0 if args.seconds is None else args.seconds
     if not (1 <= args.songs <= 100_000) or not (2.0 <= seconds <= 3600) or args.fps <= 0 or args.rate < 8000:
         raise DanceError("synth: need 1 <= --songs, 2 <= --seconds <= 3600, --fps > 0, --rate >= 8000")
+    try:
+        chosen = None if "all" in dancers else dancer_names(dancers)
+    except ValueError as exc:
+        raise DanceError(f"synth: --dancers: {exc}") from exc
     names = write_dataset(args.out_dir, args.songs, args.seed, seconds, args.fps, rate=args.rate,
-                          jobs=max(1, args.jobs))
-    print(f"{args.out_dir}: {len(names)} songs ({names[0]} ... {names[-1]}): .wav .bvh .beats .texts .sections")
+                          dances_per_song=args.dances, jobs=max(1, args.jobs), dancers=chosen, homogeneous=homogeneous)
+    what = f"{args.songs} songs x {args.dances} dances" if args.dances > 1 else f"{len(names)} songs"
+    print(f"{args.out_dir}: {what} ({names[0]} ... {names[-1]}): .wav .bvh .beats .texts .sections")
     return 0
