@@ -34,6 +34,12 @@ def register_metrics(register):
         "Mean pairwise distance between generated samples of the same song (SONG-k)",
     )
     register(
+        "move-validity",
+        e.MoveValidityConfig,
+        "dance_core.evaluation.move_validity:build_move_validity",
+        "Share of bars within a threshold of one of the synthetic dancer's move templates",
+    )
+    register(
         "mpd",
         e.MPDConfig,
         "dance_core.evaluation.mpd:build_mpd",

@@ -105,3 +105,16 @@ class MPDConfig(ComponentConfig):
         if any(a > self.future for a in self.at):
             raise ValueError(f"at={self.at}: every future frame must be at most future={self.future}")
         return self
+
+
+class MoveValidityConfig(ComponentConfig):
+    """A bar is valid within ``threshold`` m (RMS joint distance) of a move template; the meters tried."""
+
+    threshold: PositiveFloat = 0.025
+    meters: list[int] = Field(default_factory=lambda: [3, 4], min_length=1)
+
+    @model_validator(mode="after")
+    def _meters(self) -> MoveValidityConfig:
+        if any(not 2 <= m <= 7 for m in self.meters):
+            raise ValueError(f"meters={self.meters}: beats per bar must lie within 2-7")
+        return self
