@@ -52,7 +52,9 @@ def test_noise_and_a_frozen_pose_are_not_moves(dances):
     frozen = [JointClip(c.name, np.repeat(c.positions[:1], len(c.positions), 0), c.fps, None, c.music_beats)
               for c in clips]
     assert metric(jitter).values["move_validity"] == 0.0
-    assert metric(frozen).values["move_validity"] == 0.0 and metric(frozen).values["move_distance"] > 0.05
+    held = metric(frozen)
+    assert held.values["move_validity"] == 0.0 and held.values["move_distance"] > 0.04
+    assert all(v["still_bars"] == v["bars"] for v in held.per_clip.values())
     still = metric([JointClip(c.name, c.positions, c.fps) for c in frozen])  # no music, no beat in the motion
     assert still.values["move_validity"] == 0.0 and any("nominal 120 bpm" in n for n in still.notes)
 

@@ -12,13 +12,14 @@ A dance is cut into bars on the music's beats (``JointClip.music_beats``) or, wi
 own kinematic beats (the pelvis's lowest points, where the generator's groove puts every dancer
 beat; a dance with none, a frozen one, on a nominal 120 bpm count); the meter and the downbeat are
 unknown, so every meter of ``meters`` and every downbeat is tried and the cut whose bars lie nearest
-to the templates is kept. Each bar is resampled to ``SAMPLES`` points
-per beat and every beat of it is put in its own body frame (:func:`dance_core.evaluation.canon.
-canonicalize` at the beat's middle: root over the origin, hips facing +Z), so neither where on the
-floor nor which way the dancer faces counts, while travelling and turning within a beat do. A
-bar's distance is the RMS joint distance (m) to the nearest template, where a bar may change move
-once at a beat (the first beats from one template, the rest from another: the dancers change moves
-at any beat, at most once a bar). A bar is valid within ``threshold`` metres.
+to the templates is kept. Each bar is resampled to ``SAMPLES`` points per beat and every beat of it
+is put in its own body frame (:func:`dance_core.evaluation.canon.canonicalize` at the beat's middle:
+root over the origin, hips facing +Z), so neither where on the floor nor which way the dancer faces
+counts, while travelling and turning within a beat do. A bar's distance is the RMS joint distance
+(m) to the nearest template, or to two templates one after the other (the dancers change moves at
+any beat, at most once a bar, blending over the half beat before: that half beat is not scored). A
+bar is valid within ``threshold`` metres unless it is held still (moving less than half as much as
+the stillest template, a bounce, which is itself only about 0.023 m from its mean pose).
 """
 
 from __future__ import annotations
@@ -124,9 +125,22 @@ def bar_distances(bars: np.ndarray, bank: np.ndarray, every: int = SAMPLES) -> n
     return np.sqrt(np.maximum(best, 0.0) / bars.shape[3])
 
 
-def clip_bars(clip: JointClip, meters: Sequence[int]) -> tuple[np.ndarray, dict[str, float], str | None]:
-    """The distances of a clip's bars under the meter and downbeat that fit best, what was chosen, and
-    a note when the beats came from the motion."""
+def bar_motion(bars: np.ndarray) -> np.ndarray:
+    """How much each bar moves: the RMS joint distance (m) of its samples from its mean pose, ``(bars,)``."""
+    x = bars.reshape(len(bars), -1, *bars.shape[3:])
+    return np.sqrt(((x - x.mean(axis=1, keepdims=True)) ** 2).sum(-1).mean(axis=(1, 2)))
+
+
+@lru_cache(maxsize=8)
+def stillest(meter: int) -> float:
+    """How much the stillest template of ``meter`` beats moves (m; a bounce: about 0.023)."""
+    return float(bar_motion(templates(meter)[0]).min())
+
+
+def clip_bars(clip: JointClip, meters: Sequence[int]) -> tuple[np.ndarray, np.ndarray, dict[str, float], str | None]:
+    """The distances of a clip's bars under the meter and downbeat that fit best, which of them are held
+    still (moving less than half the stillest template: no move, whatever pose they are near), what was
+    chosen, and a note when the beats came from the motion."""
     p = check_positions(clip)
     if p.shape[1] != 24:
         raise DataError(f"{WHAT}: {clip.name}: needs the 24 SMPL joints of the synthetic dancer, got {p.shape[1]}")
@@ -138,7 +152,7 @@ def clip_bars(clip: JointClip, meters: Sequence[int]) -> tuple[np.ndarray, dict[
     if len(beats) <= min(meters):  # a dance without beats (frozen, say) is scored on a nominal count
         beats = np.arange(0.0, clip.duration, 60.0 / NOMINAL_BPM)
         note = f"{WHAT}: {clip.name}: no music beats and no kinematic beat; bars at a nominal {NOMINAL_BPM:g} bpm"
-    best: tuple[float, np.ndarray, dict[str, float]] | None = None
+    best: tuple[float, np.ndarray, np.ndarray, dict[str, float]] | None = None
     for meter in meters:
         bank = templates(meter)[0]
         for downbeat in range(meter):
@@ -147,10 +161,11 @@ def clip_bars(clip: JointClip, meters: Sequence[int]) -> tuple[np.ndarray, dict[
                 continue
             dist = bar_distances(bars, bank, SAMPLES if note is None else SAMPLES // 2)
             if best is None or dist.mean() < best[0]:
-                best = (float(dist.mean()), dist, {"meter": float(meter), "downbeat": float(downbeat)})
+                still = bar_motion(bars) < 0.5 * stillest(meter)
+                best = (float(dist.mean()), dist, still, {"meter": float(meter), "downbeat": float(downbeat)})
     if best is None:
         raise DataError(f"{WHAT}: {clip.name}: {clip.duration:.2f} s hold no whole bar of {min(meters)} beats")
-    return best[1], best[2], note
+    return best[1], best[2], best[3], note
 
 
 class MoveValidity:
@@ -162,25 +177,27 @@ class MoveValidity:
         self.threshold, self.meters = threshold, tuple(meters)
 
     def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
-        """``move_validity`` (share of valid bars, pooled over the set), ``move_distance`` (mean bar
-        distance, m) and ``move_bars``; per clip the same with the meter and downbeat chosen."""
+        """``move_validity`` (share of valid bars, pooled over the set: within ``threshold`` and not held
+        still), ``move_distance`` (mean bar distance, m) and ``move_bars``; per clip the same, the still
+        bars, and the meter and downbeat chosen."""
         require_clips(generated, 1, WHAT)
         per_clip, notes, pooled = {}, [], []
         for clip in generated:
             try:
-                dist, chosen, note = clip_bars(clip, self.meters)
+                dist, still, chosen, note = clip_bars(clip, self.meters)
             except DataError as exc:
                 notes.append(f"{exc}; skipped")
                 continue
             if note:
                 notes.append(note)
-            pooled.append(dist)
-            per_clip[clip.name] = {"move_validity": float((dist <= self.threshold).mean()),
-                                   "move_distance": float(dist.mean()), "bars": float(len(dist)), **chosen}
+            valid = (dist <= self.threshold) & ~still
+            pooled.append((dist, valid))
+            per_clip[clip.name] = {"move_validity": float(valid.mean()), "move_distance": float(dist.mean()),
+                                   "bars": float(len(dist)), "still_bars": float(still.sum()), **chosen}
         if not pooled:
             raise DataError(f"{WHAT}: no clip could be cut into bars ({'; '.join(notes)})")
-        dist = np.concatenate(pooled)
-        values = {"move_validity": float((dist <= self.threshold).mean()), "move_distance": float(dist.mean()),
+        dist, valid = (np.concatenate(x) for x in zip(*pooled, strict=True))
+        values = {"move_validity": float(valid.mean()), "move_distance": float(dist.mean()),
                   "move_bars": float(len(dist))}
         return MetricResult(values, per_clip, notes)
 
