@@ -51,6 +51,12 @@ MODEL_CASES = [
     ("encoder", "moglow-context", {"motion_frames": 4, "music_past": 4, "music_future": 2, "steps": 3,
                                    "hidden": 16, "layers": 1, "dim": 16}, {}),
     ("encoder", "local-attention", {"dim": 16, "layers": 1, "heads": 2, "head_dim": 8, "ff_dim": 16, "k": 4}, {}),
+    ("head", "tm2d", {"tokenizer": {"codes": 32, "code_dim": 16, "width": 32, "crop": 16},
+                      "prior": {"dim": 32, "layers": 2, "text_layers": 1, "heads": 4, "ffn": 64, "dropout": 0.0,
+                                "vocab_size": 40, "context": 6, "radius": 3}},
+     {"window": SONG, "length": 32, "motion_dim": 6, "latent_dim": 16}),
+    ("encoder", "tm2d-audio", {"dim": 32, "layers": 1, "heads": 4, "ffn": 64, "dropout": 0.0, "radius": 3},
+     {"cond_dims": {"music": 5, "beat": 2, "text": 4}, "frames": 37}),
     ("conditioner", "mlp", {"dim": 8}, {}),
     ("conditioner", "mlp", {"dim": 8, "layers": 1, "dropout": 0.1}, {"input": "text", "in_dim": 3}),
 ]
