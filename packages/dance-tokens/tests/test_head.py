@@ -19,6 +19,24 @@ def test_head_and_encoder_pass_the_contract_checks(registry, tiny_head, tiny_enc
     assert encoder.window.song_level and encoder.out_dim == 32
 
 
+def test_audio_encoder_works_at_the_token_rate(registry, tiny_encoder):
+    from dance_core import EncoderContext
+
+    encoder = registry.create("encoder", "tm2d-audio", tiny_encoder, EncoderContext(6, {"music": 3})).eval()
+    music = torch.randn(2, 8 * 5 + 3, 3)
+    with torch.no_grad():
+        latent = encoder(None, {"music": music})
+        assert latent.shape == (2, 43, 32)
+        tokens = latent[:, ::8]
+        assert torch.equal(latent, tokens.repeat_interleave(8, dim=1)[:, :43])  # one vector per token's frames
+        nudged = music.clone()
+        nudged[:, 13] += 1.0  # frame 5 of token 1: the mean over the token's frames sees it
+        assert not torch.equal(encoder(None, {"music": nudged})[:, 8], latent[:, 8])
+    first = registry.create("encoder", "tm2d-audio", {**tiny_encoder, "pool": "first"}, EncoderContext(6, {"music": 3}))
+    with torch.no_grad():
+        assert torch.equal(first.eval()(None, {"music": nudged}), first(None, {"music": music}))  # every 8th frame
+
+
 def test_defaults_are_the_papers(registry):
     head = registry.create("head", "tm2d", {}, _context())
     c = head.config

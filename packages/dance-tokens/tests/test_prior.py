@@ -42,7 +42,7 @@ def test_prior_learns_both_branches():
         ce = F.cross_entropy
         return ce(music.flatten(0, 1), tokens.flatten()), ce(text.flatten(0, 1), said.flatten())
 
-    for _ in range(150):
+    for _ in range(100):
         music, text = losses(*batch(gen))
         opt.zero_grad()
         (music + text).backward()
