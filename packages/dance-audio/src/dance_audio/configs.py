@@ -86,14 +86,16 @@ class BeatsConfig(ComponentConfig):
 class WordEmbeddingConfig(ComponentConfig):
     """Token ids of each frame's instruction for a learned embedding (TM2D), from a vocabulary file."""
 
-    vocab: str
+    vocab: str = Field(json_schema_extra={"path": True},
+                       description="vocabulary file, one word per line (relative: to the recipe that names it)")
     max_words: PositiveInt = 32
 
 
 class GloveConfig(ComponentConfig):
     """Mean GloVe vector of each frame's instruction, from a user-supplied text file."""
 
-    path: str
+    path: str = Field(json_schema_extra={"path": True},
+                      description="GloVe text file (relative: to the recipe that names it)")
     dim: PositiveInt = 300
 
 

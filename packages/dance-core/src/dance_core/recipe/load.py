@@ -43,6 +43,13 @@ class SourceMap:
             return best[1]
         return f"{self.sources[-1].origin}:1" if self.sources else "<recipe>"
 
+    def folder_of(self, loc: tuple[Any, ...]) -> str | None:
+        """The folder of the recipe file that wrote a field (None for ``--set`` and unknown fields)."""
+        where = self.where(loc)
+        if where.startswith("--set") or where == "<recipe>":
+            return None
+        return str(Path(where.rsplit(":", 1)[0]).parent)
+
 
 def _other_component(base: Any, value: Any) -> bool:
     """True when ``value`` names a different plugin than ``base``: the component is replaced, not merged."""
@@ -168,6 +175,7 @@ def validate_components(recipe: Recipe, smap: SourceMap, registry: Registry) -> 
             spec._entry = entry
         if not lines:
             spec._config = config
+            spec._base = smap.folder_of(loc) or recipe._dir
     if problems:
         raise RecipeError("\n".join(problems))
 

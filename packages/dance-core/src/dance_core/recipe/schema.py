@@ -32,6 +32,7 @@ class ComponentSpec(BaseModel):
     plugin: str = Field(description="registered name of the component")
     _config: Any = PrivateAttr(default=None)
     _entry: Any = PrivateAttr(default=None)
+    _base: str = PrivateAttr(default=".")
 
     def options(self) -> dict[str, Any]:
         """The options given next to ``plugin``."""
@@ -48,7 +49,25 @@ class ComponentSpec(BaseModel):
         """Build the component with its validated config and its kind's context (``dance_core.contexts``)."""
         if self._entry is None:
             raise RuntimeError(f"component {self.plugin!r} has not been validated")
-        return self._entry.build(self._config, context)
+        return self._entry.build(resolve_paths(self._config, self._base), context)
+
+
+def resolve_paths(config: Any, base: str) -> Any:
+    """A config whose relative file options (fields marked ``json_schema_extra={"path": True}``) point
+    into ``base``, the folder of the recipe file that wrote them, so a bundled recipe finds its own
+    files from anywhere; the recipe (and a checkpoint's copy of it) keeps them as written."""
+    from pathlib import Path
+
+    if config is None:
+        return None
+    update = {}
+    for name, f in type(config).model_fields.items():
+        value = getattr(config, name)
+        if isinstance(f.json_schema_extra, dict) and f.json_schema_extra.get("path") and isinstance(value, str):
+            p = Path(value).expanduser()
+            if not p.is_absolute():
+                update[name] = str(Path(base) / p)
+    return config.model_copy(update=update) if update else config
 
 
 class ModelSpec(Strict):
