@@ -96,6 +96,10 @@ def test_song_level_family_trains_and_generates_through_core(tmp_path):
         assert model.segment_frames(24) == 24
         result = trainer.run()
         assert result.last_loss < result.first_loss
+        import json
+
+        logged = [json.loads(line) for line in (tmp_path / "log.jsonl").read_text().splitlines()]
+        assert any(entry.get("q") == 3.0 for entry in logged)  # the head's other values are logged
         streams = {"music": torch.randn(2, 50, 4)}
         seed = torch.full((2, 1, 18), 0.5)
         model.encoder.calls = 0

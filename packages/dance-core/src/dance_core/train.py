@@ -350,7 +350,7 @@ class Trainer:
                     rate = (done - tick_step) * (stage.batch_size or self.t.batch_size) / max(now - tick, 1e-9)
                     tick, tick_step = now, done
                     self._log({"step": done, "stage": stage.name, "epoch": ctx.epoch, "lr": lr,
-                               "loss": loss, "segments_per_s": rate, **ctx.values})
+                               "loss": loss, "segments_per_s": rate, **ctx.values, **getattr(self, "extras", {})})
                     if bar:
                         bar.update(task, info=f"loss {loss:.4f}  {rate:.0f} seg/s")
                 if done % self.t.val_every == 0 or done == end:
@@ -366,7 +366,11 @@ class Trainer:
     def _step(self, step: int, optimizer: torch.optim.Optimizer, ctx: TrainContext, size: int | None = None) -> float:
         motion, streams = self.sampler.batch(step, self.device, size)
         with _autocast(self.device, self.precision):
-            loss = self.model.training_loss(motion, streams, ctx, self.t.augment)["loss"]
+            losses = self.model.training_loss(motion, streams, ctx, self.t.augment)
+        loss = losses["loss"]
+        #: the head's other scalar values (e.g. TM2D's codebook usage, per-branch cross-entropy), logged
+        self.extras = {k: float(v.detach()) for k, v in losses.items()
+                       if k != "loss" and torch.is_tensor(v) and v.numel() == 1}
         value = float(loss.detach())
         if not math.isfinite(value):
             self._stop(step, f"loss is {value}", ctx)
