@@ -169,3 +169,12 @@ def test_finish_decodes_all_tokens_jointly(song_head):
     motion, tokens = generate(song_head, latent, torch.zeros(1, 8 * 6 + 8, 5))
     with torch.no_grad():
         torch.testing.assert_close(motion, song_head.tokenizer.decode(tokens)[:, : 8 * 6], rtol=0, atol=0)
+
+
+def test_a_missing_text_stream_fails_when_the_head_is_built(registry, tiny_head):
+    from dance_core import HeadContext
+
+    ctx = HeadContext(6, 16, None, SONG, cond_dims={"music": 5, "beat": 2})
+    with pytest.raises(ValueError, match="text_stream: the features have no stream 'text'"):  # RecipeError in a recipe
+        registry.create("head", "tm2d", tiny_head, ctx)
+    assert registry.create("head", "tm2d", {**tiny_head, "text_stream": None}, ctx) is not None

@@ -33,12 +33,14 @@ class EncoderContext:
 
 @dataclass(frozen=True)
 class HeadContext:
-    """A head turns the encoder's latent into ``motion_dim`` channels per frame."""
+    """A head turns the encoder's latent into ``motion_dim`` channels per frame; ``cond_dims`` are the
+    conditioned streams' widths (for a sequence head reading a stream itself, e.g. TM2D's text)."""
 
     motion_dim: int
     latent_dim: int
     latent_tokens: int | None
     window: Window
+    cond_dims: Mapping[str, int] | None = None  # None: not known (a head checked on its own)
 
 
 @dataclass(frozen=True)

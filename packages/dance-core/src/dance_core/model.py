@@ -31,7 +31,7 @@ def build_model(recipe: Recipe, motion_dim: int, stream_dims: Mapping[str, int])
     head = _build(
         recipe.model.head,
         "model.head",
-        HeadContext(motion_dim, encoder.out_dim, encoder.latent_tokens, encoder.window),
+        HeadContext(motion_dim, encoder.out_dim, encoder.latent_tokens, encoder.window, cond_dims),
     )
     want = getattr(head, "latent_tokens", None)
     # a song-level encoder gives one token per frame, so a head needing K tokens per step gets its `frames`

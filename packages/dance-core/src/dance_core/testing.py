@@ -166,6 +166,7 @@ def check_head(
     steps: int = 3,
     values: Mapping[str, float] | None = None,
     registry: registry.Registry | None = None,
+    cond_dims: Mapping[str, int] | None = None,
 ) -> Any:
     """Build head ``name`` and check its contract the way ``ComposedModel`` drives it.
 
@@ -185,12 +186,16 @@ def check_head(
 
     window = window or Window(motion_past=4, cond_past=4, cond_future=2)
     song = window.song_level
+
+    def context(tokens: int | None) -> HeadContext:
+        return HeadContext(motion_dim, latent_dim, tokens, window, cond_dims)
+
     tokens = None if song else (latent_tokens or 1)
-    head, check = _create("head", name, options, HeadContext(motion_dim, latent_dim, tokens, window), registry)
+    head, check = _create("head", name, options, context(tokens), registry)
     asks = getattr(head, "latent_tokens", None)
     if not song and latent_tokens is None and isinstance(asks, int) and asks >= 1 and asks != tokens:
         tokens = asks  # rebuilt for an encoder that gives what the head asks for, as a recipe would pair them
-        head, check = _create("head", name, options, HeadContext(motion_dim, latent_dim, tokens, window), registry)
+        head, check = _create("head", name, options, context(tokens), registry)
     check.count(head.frames, "frames", 1)
     check.count(head.keep, "keep", 1)
     check.that(head.keep <= head.frames, f"keep ({head.keep}) cannot exceed frames ({head.frames})")
