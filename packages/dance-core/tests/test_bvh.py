@@ -3,7 +3,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dance_core.compose import read_motion
+from dance_core.data.files import read_motion_file as read_motion
 from dance_core.errors import DataError
 from dance_core.formats.bvh import BvhFormat
 from dance_core.registry import get_registry

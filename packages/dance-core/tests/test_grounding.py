@@ -166,7 +166,8 @@ def floating_checkpoint(tmp_path_factory):
 
 @pytest.mark.parametrize("on", [True, False])
 def test_compose_grounds_skeletal_dances(floating_checkpoint, tmp_path, on):
-    from dance_core.compose import compose, read_motion
+    from dance_core.compose import compose
+    from dance_core.data.files import read_motion_file as read_motion
     from dance_core.recipe import load_recipe
     from dance_core.registry import get_registry
 

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dance_core.compose import read_motion
+from dance_core.data.files import read_motion_file as read_motion
 from dance_core.errors import DataError
 from dance_core.formats.joints import JointsFormat
 from dance_core.formats.keypoints import KeypointsFormat

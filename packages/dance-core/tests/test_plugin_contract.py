@@ -49,15 +49,15 @@ class HeadPlugin:
 
 
 def test_a_head_that_is_not_a_module_fails_on_build_naming_the_plugin():
-    with registered_plugin(HeadPlugin(PlainHead), "odd-heads") as registry:
-        with pytest.raises(PluginError, match=r"head 'odd' \(plugin 'odd-heads'\).*not a torch.nn.Module"):
-            registry.create("head", "odd", context=HEAD_CONTEXT)
+    message = r"head 'odd' \(plugin 'odd-heads'\).*not a torch.nn.Module"
+    with registered_plugin(HeadPlugin(PlainHead), "odd-heads") as registry, pytest.raises(PluginError, match=message):
+        registry.create("head", "odd", context=HEAD_CONTEXT)
 
 
 def test_a_head_missing_a_protocol_method_names_it():
-    with registered_plugin(HeadPlugin(NoStepHead), "odd-heads") as registry:
-        with pytest.raises(PluginError, match=r"lacks step \(the OutputHead protocol"):
-            registry.create("head", "odd", context=HEAD_CONTEXT)
+    message = r"lacks step \(the OutputHead protocol"
+    with registered_plugin(HeadPlugin(NoStepHead), "odd-heads") as registry, pytest.raises(PluginError, match=message):
+        registry.create("head", "odd", context=HEAD_CONTEXT)
 
 
 def test_every_core_component_satisfies_its_contract():
@@ -83,9 +83,9 @@ class BadConfigPlugin:
 
 
 def test_a_config_that_is_not_a_component_config_is_one_line():
-    with pytest.raises(PluginError, match=r"plugin 'bad-config'.*NotAConfig.*not a dance_core.ComponentConfig"):
-        with registered_plugin(BadConfigPlugin(), "bad-config"):
-            pass
+    message = r"plugin 'bad-config'.*NotAConfig.*not a dance_core.ComponentConfig"
+    with pytest.raises(PluginError, match=message), registered_plugin(BadConfigPlugin(), "bad-config"):
+        pass
 
 
 def test_bad_options_outside_a_recipe_name_the_component():

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from dance_core.checkpoint import check_matches, load_checkpoint
-from dance_core.compose import compose, read_motion
+from dance_core.compose import compose
+from dance_core.data.files import read_motion_file as read_motion
 from dance_core.recipe import load_recipe
 from dance_core.registry import get_registry
 

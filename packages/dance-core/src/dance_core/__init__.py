@@ -25,9 +25,9 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
 _LAZY: dict[str, str] = {
     # protocols and the data they pass around
     **dict.fromkeys(
-        ("Window", "TrainContext", "SongInputs", "Conditioner", "Encoder", "OutputHead", "FeatureExtractor", "AudioReader",
-         "MotionData", "MotionFormat", "MotionRepresentation", "Dataset", "Schedule", "JointClip", "MetricResult",
-         "Metric"),
+        ("Window", "TrainContext", "SongInputs", "Conditioner", "Encoder", "OutputHead", "FeatureExtractor",
+         "AudioReader", "MotionData", "MotionFormat", "MotionRepresentation", "Dataset", "Schedule", "JointClip",
+         "MetricResult", "Metric"),
         "dance_core.protocols",
     ),
     # what a builder receives besides its config

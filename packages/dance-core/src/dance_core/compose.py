@@ -16,10 +16,11 @@ from dance_core.data.prepare import decode_motion, encode_seed, stored_represent
 from dance_core.errors import DanceError, DataError, RecipeError
 from dance_core.media import TextSpan, frame_count
 from dance_core.model import ComposedModel, build_model
+from dance_core.progress import progress_bar
 from dance_core.protocols import MotionData
 from dance_core.recipe.schema import Recipe, TextSpec
 from dance_core.registry import Registry, get_registry
-from dance_core.runtime import generation_threads, pick_device, progress_bar
+from dance_core.runtime import generation_threads, pick_device
 
 
 @dataclass
@@ -33,17 +34,12 @@ class Song:
     texts: tuple[TextSpan, ...] = ()
 
 
-def read_motion(path: str | Path, registry: Registry) -> MotionData:
-    """Read a motion file with the format registered for its suffix."""
-    return read_motion_file(path, registry)
-
-
 def seed_motion(spec: str | None, ckpt: Checkpoint, frames: int, registry: Registry) -> np.ndarray:
     """Normalized seed ``(frames, D)``: the mean pose for ``rest``/None, else a motion file."""
     dim = ckpt.motion["dim"]
     if spec in (None, "rest"):
         return np.zeros((frames, dim), np.float32)
-    motion = encode_seed(ckpt.motion, read_motion(spec, registry), registry)
+    motion = encode_seed(ckpt.motion, read_motion_file(spec, registry), registry)
     if motion.values.shape[1] != dim:
         raise DataError(f"{spec}: seed motion has {motion.values.shape[1]} channels, the model {dim}")
     if abs(motion.fps - ckpt.motion["fps"]) > 1e-6:

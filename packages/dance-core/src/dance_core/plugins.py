@@ -172,11 +172,4 @@ def get_plugin_manager() -> DancePluginManager:
 
 def plugin_distribution(pm: pluggy.PluginManager, plugin_name: str) -> tuple[str, str]:
     """The (distribution, version) that provided a registered plugin."""
-    dists = getattr(pm, "dists", {})
-    if plugin_name in dists:
-        return dists[plugin_name]
-    plugin = pm.get_plugin(plugin_name)
-    for registered, dist in pm.list_plugin_distinfo():
-        if registered is plugin:
-            return dist.metadata["name"], dist.version
-    return plugin_name, "unpackaged"
+    return getattr(pm, "dists", {}).get(plugin_name, (plugin_name, "unpackaged"))

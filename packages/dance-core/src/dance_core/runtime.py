@@ -1,4 +1,4 @@
-"""Devices, seeding and progress display shared by the loops."""
+"""Devices, threads and seeding shared by the loops."""
 
 from __future__ import annotations
 
@@ -9,7 +9,6 @@ import numpy as np
 import torch
 
 from dance_core.errors import DanceError
-from dance_core.progress import progress_bar  # noqa: F401 - re-exported for the loops
 
 
 def pick_device(name: str = "auto", threads: int | None = None) -> torch.device:

@@ -38,10 +38,11 @@ from dance_core.data.sampling import SegmentSampler, split_clips
 from dance_core.data.stats import NormStats
 from dance_core.errors import CheckpointError, DanceError, DataError, RecipeError, TrainingError
 from dance_core.model import ComposedModel, build_model
+from dance_core.progress import progress_bar
 from dance_core.protocols import TrainContext
 from dance_core.recipe.schema import Recipe, StageSpec
 from dance_core.registry import get_registry
-from dance_core.runtime import pick_device, progress_bar, seed_everything
+from dance_core.runtime import pick_device, seed_everything
 
 MODEL_FILE, STATE_FILE, LOG_FILE = "model.safetensors", "state.safetensors", "log.jsonl"
 LOCK_FILE, RECIPE_FILE = "train.lock", "recipe.yaml"

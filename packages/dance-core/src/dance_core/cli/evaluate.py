@@ -75,8 +75,8 @@ def run(args: argparse.Namespace) -> int:
 
     from dance_core.evaluation import loading
     from dance_core.evaluation import report as R
+    from dance_core.progress import progress_bar
     from dance_core.registry import get_registry
-    from dance_core.runtime import progress_bar
 
     registry = get_registry()
     for name in args.metrics or []:
