@@ -41,11 +41,20 @@ class SegmentSampler:
         """How many distinct segments exist (the size of an epoch, in segments)."""
         return int(self.valid.sum())
 
-    def batch(self, index: int, device: torch.device | str = "cpu", size: int | None = None):
-        """Batch ``index``: motion ``(B, L, D)`` and streams ``{name: (B, L, C)}`` (``size``: B, else the default)."""
+    def batch(
+        self, index: int, device: torch.device | str = "cpu", size: int | None = None, part: tuple[int, int] = (0, 1)
+    ):
+        """Batch ``index``: motion ``(B, L, D)`` and streams ``{name: (B, L, C)}`` (``size``: B, else the default).
+
+        ``part=(k, n)``: the batch of ``B × n`` segments is drawn, and its ``k``-th run of ``B`` rows
+        returned (one rank's share of a distributed batch: the ``n`` parts together are exactly the
+        batch one process draws with ``size=B × n``)."""
+        k, n = part
+        size = size or self.batch_size
         rng = np.random.default_rng([self.seed, index])
-        picks = rng.choice(len(self.clips), size=size or self.batch_size, p=self.weights)
+        picks = rng.choice(len(self.clips), size=size * n, p=self.weights)
         starts = rng.integers(0, self.valid[picks])
+        picks, starts = picks[k * size : (k + 1) * size], starts[k * size : (k + 1) * size]
         sl = [slice(int(s), int(s) + self.length) for s in starts]
         motion = np.stack([self.clips[p].motion[s] for p, s in zip(picks, sl, strict=True)])
         names = self.clips[0].streams.keys()
