@@ -22,7 +22,8 @@ from dance_core.cli.main import main
 CASES: list[tuple[str, str]] = [
     # compose
     ("compose default --music {a}/missing.wav -o {o}/out", "missing.wav: audio file not found"),
-    ("compose default --music {a}/folder -o {o}/out", "--music {a}/folder: is a folder, not an audio file"),
+    ("compose default --music {a}/folder -o {o}/out",
+     "--music {a}/folder: no audio files in this folder (suffixes read: "),
     ("compose default --music {a}/empty.wav -o {o}/out", "--music {a}/empty.wav: audio file is empty"),
     ("compose default --music {a}/song.wav --samples 0", "argument --samples: must be between 1 and 1000"),
     ("compose default --music {a}/song.wav --temperature -1", "argument --temperature: must be at least 0"),

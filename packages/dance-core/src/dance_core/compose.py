@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +21,7 @@ from dance_core.protocols import MotionData
 from dance_core.recipe.schema import Recipe, TextSpec
 from dance_core.registry import Registry, get_registry
 from dance_core.runtime import generation_threads, pick_device
+from dance_core.shards import Shard
 
 
 @dataclass
@@ -102,6 +103,57 @@ def load_model(
     return model.to(device).eval(), ckpt, stack
 
 
+@dataclass
+class Composed:
+    """What one composition call did: files written, songs written and skipped, frames generated."""
+
+    written: list[Path] = field(default_factory=list)
+    songs: list[str] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)
+    frames: int = 0
+    seconds: float = 0.0
+    shard: Shard | None = None
+
+
+def audio_files(folder: str | Path, registry: Registry, option: str | None = None) -> list[str]:
+    """The audio files directly in ``folder`` that a registered audio reader accepts, sorted by name
+    (hidden files, such as our own temporary files, are left out); none is one line naming ``option``."""
+    accepted = set(registry.suffixes("audio-reader"))
+    found = sorted(
+        str(p) for p in Path(folder).iterdir()
+        if p.is_file() and not p.name.startswith(".") and p.suffix.lower() in accepted
+    )
+    if not found:
+        label = f"{option} {folder}" if option else str(folder)
+        raise DataError(f"{label}: no audio files in this folder (suffixes read: {', '.join(sorted(accepted))})")
+    return found
+
+
+def expand_music(paths: list[str], registry: Registry) -> list[str]:
+    """Songs from files and folders: a folder stands for its audio files (:func:`audio_files`)."""
+    out: list[str] = []
+    for path in paths:
+        out.extend(audio_files(path, registry) if Path(path).is_dir() else [str(path)])
+    return out
+
+
+def output_targets(out: Path, stems: list[str], formats: list, texts: bool) -> list[Path]:
+    """Every file one song's dances are written to (its output set), in write order."""
+    targets = []
+    for stem in stems:
+        targets.extend(out / f"{stem}{_suffix(entry)}" for entry, _ in formats)
+        if texts:
+            targets.append(out / f"{stem}.texts")
+    return targets
+
+
+def complete(targets: list[Path]) -> bool:
+    """True when every file of a song's output set exists and is not empty. A set is committed by
+    renaming its temporary files in one pass with signals held, so only a kill inside that pass (or
+    files removed by hand) leaves part of a set, and a part is never taken as complete."""
+    return all(t.is_file() and t.stat().st_size > 0 for t in targets)
+
+
 def compose(
     recipe: Recipe,
     music: list[str] | None = None,
@@ -110,12 +162,31 @@ def compose(
     quiet: bool = False,
 ) -> list[Path]:
     """Generate ``compose.samples`` dances per song and write them in every format asked for."""
+    return compose_songs(recipe, music, checkpoint, out_dir, quiet).written
+
+
+def compose_songs(
+    recipe: Recipe,
+    music: list[str] | None = None,
+    checkpoint: str | None = None,
+    out_dir: str | None = None,
+    quiet: bool = False,
+    *,
+    overwrite: bool = True,
+    shard: Shard | None = None,
+) -> Composed:
+    """Compose every song (files or folders of them), or this ``shard``'s part of them; each song's
+    files are written as one output set as soon as its dances are generated. ``overwrite=False`` skips
+    a song whose output set is complete (:func:`complete`) without loading the model for it.
+
+    Each song is generated alone (:func:`generate_song`), so its dance is the same bytes whatever the
+    other songs, their order or the shard."""
     c = recipe.compose
     registry = get_registry()
     checkpoint = checkpoint or (recipe.resolve_path(c.checkpoint) if c.checkpoint else None)
     if checkpoint is None:
         raise RecipeError(f"{recipe._origin}: compose.checkpoint: no model given (or pass --checkpoint)")
-    songs_in = music or [recipe.resolve_path(m) for m in c.music]
+    songs_in = expand_music(music or [recipe.resolve_path(m) for m in c.music], registry)
     if not songs_in:
         raise RecipeError(f"{recipe._origin}: compose.music: no song given (or pass --music)")
     if c.texts and not reads_text(recipe, registry):
@@ -123,37 +194,56 @@ def compose(
         raise RecipeError(f"{recipe._origin}: compose.texts: this model reads no text (features: {features}); "
                           "drop --text or use a recipe with a text feature such as tm2d-small")
     formats = [(entry, entry.build()) for entry in (registry.find("motion-format", f) for f in c.formats)]
-    stems = _output_stems(songs_in, c.samples)
+    stems = dict(zip(songs_in, _output_stems(songs_in, c.samples), strict=True))  # every song's, before sharding
+    mine = shard.select(songs_in) if shard else songs_in
+    out = Path(out_dir or c.out_dir)
+    result = Composed(songs=list(mine), shard=shard)
+    todo = []
+    for path in mine:
+        if not overwrite and complete(output_targets(out, stems[path], formats, bool(c.texts))):
+            result.skipped.append(path)
+        else:
+            todo.append(path)
+    if not todo:
+        return result
     device = pick_device(c.device, c.threads)
     model, ckpt, stack = load_model(recipe, checkpoint, device)
-    songs = [load_song(p, stack, ckpt, c.seconds, registry, c.texts) for p in songs_in]
     start = model.start_frames()
     seed = torch.from_numpy(seed_motion(_beside_recipe(c.seed_motion, recipe), ckpt, start, registry))
-    motions = []
     with progress_bar(quiet) as bar:
-        total = sum(s.n_frames for s in songs)
-        task = bar.add_task("compose", total=total, info=f"{len(songs)} song(s) × {c.samples}") if bar else None
-        done = 0
-        for song in songs:
-            progress = (lambda t, done=done: bar.update(task, completed=done + t)) if bar else None
-            motions.append(generate_song(model, song, seed, recipe, device, progress))
-            done += song.n_frames
-    out = Path(out_dir or c.out_dir)
-    with OutputSet() as files:  # every file of every dance, or none
-        for song, motion, names in zip(songs, motions, stems, strict=True):
-            for k, stem in enumerate(names):
-                values = ckpt.stats.motion.invert(motion[k, : song.n_frames])
-                data = decode_motion(ckpt.motion, values, recipe.fps, registry)
-                if c.ground and data.skeleton_motion is not None:
-                    data = grounded(data, ckpt.motion, registry)
-                data.meta["audio_path"] = song.path
-                for entry, fmt in formats:
-                    fmt.write(data, str(files.path(out / f"{stem}{_suffix(entry)}")))
-                if song.texts:  # the spans beside the dance, for dance evaluate (MPD at text starts)
-                    lines = "".join(f"{t.start:.4f}\t{t.end:.4f}\t{' '.join(t.text.split())}\n" for t in song.texts)
-                    files.path(out / f"{stem}.texts").write_text(lines, encoding="utf-8")
-        written = [p for p in files.targets() if p.suffix != ".texts"]
-    return written
+        task = bar.add_task("compose", total=len(todo), info=f"{len(todo)} song(s) × {c.samples}") if bar else None
+        for i, path in enumerate(todo):
+            song = load_song(path, stack, ckpt, c.seconds, registry, c.texts)
+            progress = (lambda t, i=i, n=song.n_frames: bar.update(task, completed=i + t / n)) if bar else None
+            if bar:
+                bar.update(task, info=f"{song.name} ({i + 1}/{len(todo)}) × {c.samples}")
+            motion = generate_song(model, song, seed, recipe, device, progress)
+            result.written.extend(write_song(song, motion, stems[path], out, formats, ckpt, recipe, registry))
+            result.frames += c.samples * song.n_frames
+            result.seconds += c.samples * song.n_frames / recipe.fps
+    return result
+
+
+def write_song(
+    song: Song, motion: np.ndarray, stems: list[str], out: Path, formats: list, ckpt: Checkpoint,
+    recipe: Recipe, registry: Registry,
+) -> list[Path]:
+    """Decode, ground and write one song's dances ``(samples, frames, D)`` as one output set (every
+    file or none); returns the motion files written."""
+    c = recipe.compose
+    with OutputSet() as files:
+        for k, stem in enumerate(stems):
+            values = ckpt.stats.motion.invert(motion[k, : song.n_frames])
+            data = decode_motion(ckpt.motion, values, recipe.fps, registry)
+            if c.ground and data.skeleton_motion is not None:
+                data = grounded(data, ckpt.motion, registry)
+            data.meta["audio_path"] = song.path
+            for entry, fmt in formats:
+                fmt.write(data, str(files.path(out / f"{stem}{_suffix(entry)}")))
+            if song.texts:  # the spans beside the dance, for dance evaluate (MPD at text starts)
+                lines = "".join(f"{t.start:.4f}\t{t.end:.4f}\t{' '.join(t.text.split())}\n" for t in song.texts)
+                files.path(out / f"{stem}.texts").write_text(lines, encoding="utf-8")
+        return [p for p in files.targets() if p.suffix != ".texts"]
 
 
 def generate_song(

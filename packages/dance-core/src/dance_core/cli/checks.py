@@ -169,3 +169,17 @@ def check_output_dir(path: str | Path, option: str | None = None) -> Path:
 def warn(message: str) -> None:
     """One ``dance: warning: ...`` line on stderr."""
     print(f"dance: warning: {message}", file=sys.stderr)
+
+
+def shard_arg(text: str):
+    """An argparse ``type=`` for ``--shard I/N`` (:class:`dance_core.shards.Shard`); a bad value becomes
+    ``argument --shard: expected I/N with 1 <= I <= N, got '3/2'``."""
+    from dance_core.shards import Shard
+
+    try:
+        return Shard.parse(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+shard_arg.__name__ = "shard"

@@ -33,33 +33,37 @@ def compose(args: Namespace) -> int:
     recipe = _recipe(args, extra)
     songs, checkpoint = _compose_inputs(args, recipe)
 
-    from dance_core.compose import compose as run
+    from dance_core.compose import compose_songs
 
     start = time.perf_counter()
-    written = run(recipe, music=songs, checkpoint=checkpoint, out_dir=args.out, quiet=args.quiet)
+    result = compose_songs(recipe, music=songs, checkpoint=checkpoint, out_dir=args.out, quiet=args.quiet,
+                           overwrite=args.overwrite, shard=args.shard)
     wall = time.perf_counter() - start
-    summary = _compose_summary(recipe, songs, written, wall)
+    summary = _compose_summary(recipe, result, args.out or recipe.compose.out_dir, wall)
     if args.json:
         print(json.dumps(summary, indent=2))
         return 0
-    for path in written:
+    for path in result.written:
         print(path)
     if not args.quiet:
-        seconds = "?" if summary["seconds"] is None else f"{summary['seconds']:.1f}"
-        rate = "" if summary["frames_per_second"] is None else f", {summary['frames_per_second']:.0f} frames/s"
-        print(f"composed {len(summary['songs'])} song(s) x {summary['samples']}: {seconds} s of dance, "
-              f"{len(written)} file(s) in {summary['out']}{rate}", file=sys.stderr)
+        print(_compose_line(summary), file=sys.stderr)
     return 0
 
 
 def _compose_inputs(args: Namespace, recipe) -> tuple[list[str] | None, str | None]:
     """The songs and checkpoint compose will read, and the folder it will write, checked before any work."""
-    from dance_core.cli.checks import check_input_file, check_output_dir, warn
+    from dance_core.cli.checks import check_input_dir, check_input_file, check_output_dir, warn
 
     c = recipe.compose
     where = "--music" if args.music else "compose.music"
     for song in args.music or [recipe.resolve_path(m) for m in c.music]:
-        check_input_file(song, where, "audio file")
+        if Path(song).is_dir():  # a folder of songs, expanded by compose: one line when it holds none
+            from dance_core.compose import audio_files
+            from dance_core.registry import get_registry
+
+            audio_files(check_input_dir(song, where), get_registry(), where)
+        else:
+            check_input_file(song, where, "audio file")
     checkpoint = args.checkpoint or (recipe.resolve_path(c.checkpoint) if c.checkpoint else None)
     if checkpoint is not None:
         option = "--checkpoint" if args.checkpoint else "compose.checkpoint"
@@ -80,37 +84,36 @@ def _compose_inputs(args: Namespace, recipe) -> tuple[list[str] | None, str | No
 TEMPERATURE_WARN = 3.0
 
 
-def _compose_summary(recipe, songs: list[str] | None, written: list, wall: float) -> dict:
-    """Songs, seconds of dance (read back from each dance's first readable file: previews are write-only),
-    files written and frames composed per second of wall time."""
-    from dance_core.errors import DanceError
-    from dance_core.registry import get_registry
-
-    registry = get_registry()
-    frames, seconds = 0, 0.0
-    counted: set[str] = set()
-    for path in map(Path, written):
-        stem = str(path.with_suffix(""))
-        entry = registry.for_suffix("motion-format", path.suffix)  # readable formats only
-        if stem in counted or entry is None:
-            continue
-        try:
-            data = entry.build().read(str(path))
-        except (DanceError, OSError, ValueError):  # the files are written: a summary never fails the command
-            continue
-        counted.add(stem)
-        frames += len(data.values)
-        seconds += len(data.values) / data.fps
+def _compose_summary(recipe, result, out: str, wall: float) -> dict:
+    """Songs (this shard's; written and skipped), seconds and frames of dance generated, files written
+    and frames composed per second of wall time (model loading and writing included)."""
+    frames = result.frames
     return {
-        "songs": [str(s) for s in songs or [recipe.resolve_path(m) for m in recipe.compose.music]],
+        "songs": [str(s) for s in result.songs],
+        "written_songs": [str(s) for s in result.songs if s not in set(result.skipped)],
+        "skipped_songs": [str(s) for s in result.skipped],
+        "shard": str(result.shard) if result.shard else None,
         "samples": recipe.compose.samples,
-        "seconds": round(seconds, 3) if counted else None,
-        "frames": frames if counted else None,
-        "files": [str(p) for p in written],
-        "out": str(Path(written[0]).parent) if written else None,
+        "seconds": round(result.seconds, 3) if frames else None,
+        "frames": frames if frames else None,
+        "files": [str(p) for p in result.written],
+        "out": str(out),
         "wall_seconds": round(wall, 3),
-        "frames_per_second": round(frames / wall, 1) if counted and wall > 0 else None,
+        "frames_per_second": round(frames / wall, 1) if frames and wall > 0 else None,
     }
+
+
+def _compose_line(summary: dict) -> str:
+    """The summary line ``dance compose`` prints on stderr."""
+    seconds = "0.0" if summary["seconds"] is None else f"{summary['seconds']:.1f}"
+    rate = "" if summary["frames_per_second"] is None else f", {summary['frames_per_second']:.0f} frames/s"
+    line = (f"composed {len(summary['written_songs'])} song(s) x {summary['samples']}: {seconds} s of dance, "
+            f"{len(summary['files'])} file(s) in {summary['out']}{rate}")
+    if summary["skipped_songs"]:
+        line += f"; {len(summary['skipped_songs'])} song(s) skipped, already complete (--overwrite to redo)"
+    if summary["shard"]:
+        line += f"; shard {summary['shard']} of {len(summary['songs'])} song(s)"
+    return line
 
 
 def _text(given: str):

@@ -9,7 +9,7 @@ import sys
 import textwrap
 
 from dance_core.cli import commands
-from dance_core.cli.checks import bounded_number
+from dance_core.cli.checks import bounded_number, shard_arg
 from dance_core.errors import DanceError
 from dance_core.plugins import DEFAULT_PLUGINS, ENV_STRICT
 
@@ -112,14 +112,19 @@ def _compose_parser(sub) -> None:
         "compose",
         help="write dances for songs with a trained model",
         description="Compose a dance for each song with a recipe's trained model; prints each written file, "
-        "one per line, then a summary line on stderr (--json: one JSON summary on stdout instead).",
+        "one per line, then a summary line on stderr (--json: one JSON summary on stdout instead). A folder "
+        "stands for its audio files; a song whose files are all in the output folder already is skipped "
+        "(--overwrite to redo it); --shard I/N composes every N-th song of the list sorted by path, starting "
+        "at the I-th, so N machines or job-array tasks share a catalogue with no coordination.",
         epilog=_examples(
             "dance compose default --music song.ogg -o out",
             "dance compose core-synthetic --checkpoint runs/demo/model.safetensors --music a.wav b.wav --json",
+            "dance compose default --music songs/ -o out --shard $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT",
         ),
     )
     p.add_argument("recipe", help="recipe file or bundled recipe name (dance recipe list)")
-    p.add_argument("--music", nargs="+", metavar="SONG", help="songs to dance to (default: compose.music)")
+    p.add_argument("--music", nargs="+", metavar="SONG|FOLDER",
+                   help="songs to dance to, or folders of them (default: compose.music)")
     p.add_argument("--checkpoint", help="model checkpoint (default: compose.checkpoint)")
     p.add_argument("-o", "--out", metavar="DIR", help="output folder (default: compose.out_dir)")
     p.add_argument("--samples", type=bounded_number(int, 1, 1000), metavar="N",
@@ -135,6 +140,10 @@ def _compose_parser(sub) -> None:
     p.add_argument("--text", dest="texts", action="append", metavar="[START-END:] TEXT",
                    help='text instruction, e.g. "20-30: a person jumps" (seconds; no span: the whole song; '
                         "repeatable; models that read text only)")
+    p.add_argument("--shard", type=shard_arg, metavar="I/N",
+                   help="compose only part I of N (1-based): song k of the path-sorted list goes to part k mod N + 1")
+    p.add_argument("--overwrite", action="store_true",
+                   help="compose songs whose output files all exist already (default: skip them)")
     p.add_argument("--json", action="store_true", help="print one JSON summary instead of the file names")
     _sets(p)
     p.set_defaults(run=commands.compose)
