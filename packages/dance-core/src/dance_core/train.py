@@ -2,6 +2,13 @@
 
 A run folder is locked while a run trains in it (``train.lock`` holding the pid); the model
 checkpoint and the training state are written as one output set and carry the same step and run id.
+
+Under torchrun (``dance_core.distributed``) every rank runs this loop on its share of each batch with
+DistributedDataParallel: ``training.batch_size`` is per rank, the batch of step ``s`` is the one a
+single process draws with ``batch_size × world_size`` and rank ``r`` takes its ``r``-th slice; the
+loss and a non-finite flag are all-reduced before the backward pass (every rank stops together, with
+one message); validation is all-reduced the same way; only rank 0 locks the run folder and writes
+the log, the recipe and the checkpoints.
 """
 
 from __future__ import annotations
@@ -22,6 +29,7 @@ import numpy as np
 import torch
 import yaml
 
+from dance_core import distributed
 from dance_core.atomic import OutputSet, pid_alive, sigterm_as_interrupt, sweep_stale_temps, write_text
 from dance_core.checkpoint import (
     check_matches,
@@ -33,7 +41,7 @@ from dance_core.checkpoint import (
     train_state_info,
 )
 from dance_core.data.features import FeatureStack
-from dance_core.data.prepare import dataset_sources, motion_info, to_clip
+from dance_core.data.prepare import cached_features, dataset_sources, motion_info, to_clip
 from dance_core.data.sampling import SegmentSampler, split_clips
 from dance_core.data.stats import NormStats
 from dance_core.errors import CheckpointError, DanceError, DataError, RecipeError, TrainingError
@@ -177,6 +185,35 @@ def trainable_parameters(model: ComposedModel, stage: StageSpec) -> list[torch.n
     return chosen
 
 
+class _LossModule(torch.nn.Module):
+    """The model's training loss as ``forward`` (DistributedDataParallel and torch.compile wrap a forward)."""
+
+    def __init__(self, model: ComposedModel, idle: bool = False):
+        super().__init__()
+        self.model = model
+        if idle:
+            #: never used: DistributedDataParallel, which must look for parameters a step leaves unused
+            #: (TM2D's text branch sits out a rank's share without a sentence), then always finds one
+            #: and does not warn that looking was unnecessary
+            self.idle = torch.nn.Parameter(torch.zeros(1))
+
+    def forward(self, motion, streams, ctx, augment):  # noqa: D102 - ComposedModel.training_loss
+        return self.model.training_loss(motion, streams, ctx, augment)
+
+
+def _seed_for(seed: int, step: int, rank: int) -> int:
+    """The seed of a step's draws on a rank: rank 0's is a single process's (so one rank is unchanged)."""
+    if rank == 0:
+        return (seed * 1_000_003 + step) % 2**63
+    return int(np.random.SeedSequence([seed % 2**63, step, rank]).generate_state(2, np.uint64)[0]) % 2**63
+
+
+def _note(message: str) -> None:
+    from dance_core.plugins import warn
+
+    warn(message)
+
+
 def _autocast(device: torch.device, precision: str):
     if device.type != "cuda" or precision == "fp32":
         return nullcontext()
@@ -190,10 +227,14 @@ class Trainer:
     def __init__(self, recipe: Recipe, run_dir: Path, quiet: bool = False):
         self.recipe = recipe
         self.run_dir = run_dir
-        self.quiet = quiet
+        self.ranks = distributed.current()
+        self.world = self.ranks.world
+        self.quiet = quiet or not self.ranks.main
         self.t = recipe.training
         self.registry = get_registry()
         self.device = pick_device(self.t.device, self.t.threads)
+        if self.ranks.active:  # the group's device: cuda:LOCAL_RANK under NCCL, else the CPU
+            self.device = self.ranks.device
         seed_everything(recipe.seed)
         self.stack = FeatureStack(recipe)
         unknown = sorted(set(self.t.augment.input_dropout) - {"motion", *self.stack.dims()})
@@ -201,8 +242,9 @@ class Trainer:
             raise RecipeError(f"{recipe._origin}: training.augment.input_dropout.{unknown[0]}: no input of that name "
                               f"(inputs: motion, {', '.join(self.stack.dims())})")
         sources = dataset_sources(recipe)
+        self._warm_feature_cache(sources)
         clips = []
-        with progress_bar(quiet) as bar:
+        with progress_bar(self.quiet) as bar:
             task = bar.add_task("features", total=len(sources), info="") if bar else None
             for source in sources:
                 clips.append(to_clip(source, self.stack, self.registry))
@@ -225,30 +267,75 @@ class Trainer:
         self.val_sampler = (
             SegmentSampler(val, length, self.t.batch_size, recipe.seed + 1, "validation") if val else None
         )
-        self.steps_per_epoch = max(1, math.ceil(self.sampler.windows() / self.t.batch_size))
+        # an epoch is the same number of steps on every rank (the curriculum reads it): global batches
+        self.steps_per_epoch = max(1, math.ceil(self.sampler.windows() / (self.t.batch_size * self.world)))
         self.lr_schedule = self.t.lr_schedule.build()
         self.schedules = {name: spec.build() for name, spec in self.t.schedules.items()}
         self.stages = self.t.stage_list()
         self.total = sum(s.steps for s in self.stages)
         precision = self.t.precision
-        self.precision = ("bf16" if self.device.type == "cuda" else "fp32") if precision == "auto" else precision
+        cuda = self.device.type == "cuda"
+        self.precision = ("bf16" if cuda else "fp32") if precision == "auto" else precision
+        if not cuda and self.precision != "fp32":
+            if self.ranks.main:
+                _note(f"training.precision: {self.precision} autocast runs on CUDA only; "
+                      f"training in fp32 on {self.device.type}")
+            self.precision = "fp32"
+        self.compile = self.t.compile and cuda
+        if self.t.compile and not cuda and self.ranks.main:
+            _note(f"training.compile: torch.compile is used on CUDA only; ignored on {self.device.type}")
         self.scaler = torch.amp.GradScaler("cuda") if self.precision == "fp16" else None
         self.run_id = run_id(recipe)
+        self._loss_module: torch.nn.Module | None = None
+        self._drifted = False
+
+    def _warm_feature_cache(self, sources) -> None:
+        """Several ranks: each extracts its share of the songs a dataset caches (``data.cache``) into the
+        cache, then all wait for each other and read every song from it. A song that fails here fails
+        again, on every rank alike, when the clips are made."""
+        cached = [s for s in sources if s.meta.get("feature_cache") and s.audio_path is not None]
+        if self.world == 1 or not cached:
+            return
+        for source in cached[self.ranks.rank :: self.world]:
+            with contextlib.suppress(DanceError, OSError, ValueError):
+                cached_features(source, self.stack, self.registry, source.meta["feature_cache"])
+        distributed.barrier()
+
+    def _part(self) -> tuple[int, int]:
+        return self.ranks.rank, self.world
 
     def _optimizer(self, stage: StageSpec) -> torch.optim.Optimizer:
         opt = self.t.optimizer
+        params = trainable_parameters(self.model, stage)
+        self._prepare_stage(params)
         return torch.optim.AdamW(
-            trainable_parameters(self.model, stage),
+            params,
             lr=stage.lr or opt.lr,
             betas=opt.betas,
             weight_decay=opt.weight_decay,
         )
 
+    def _prepare_stage(self, params: list[torch.nn.Parameter]) -> None:
+        """Only the stage's parameters require gradients; the loss is wrapped in DistributedDataParallel
+        on several ranks (rebuilt per stage: it syncs the gradients of the parameters that require them)
+        and compiled when ``training.compile`` (CUDA)."""
+        chosen = {id(p) for p in params}
+        for p in self.model.parameters():
+            p.requires_grad_(id(p) in chosen)
+        module: torch.nn.Module = _LossModule(self.model, idle=self.ranks.active)
+        if self.ranks.active:
+            from torch.nn.parallel import DistributedDataParallel
+
+            module = DistributedDataParallel(module.to(self.device), find_unused_parameters=True)
+        if self.compile:
+            module = torch.compile(module)
+        self._loss_module = module
+
     def _context(self, step: int, stage: StageSpec) -> TrainContext:
         epoch = step // self.steps_per_epoch
         values = {n: float(f(step, epoch, self.total)) for n, f in self.schedules.items()}
-        # the same step draws the same augmentation noise, however the run was resumed
-        generator = torch.Generator().manual_seed((self.recipe.seed * 1_000_003 + step) % 2**63)
+        # the same step draws the same augmentation noise, however the run was resumed (each rank its own)
+        generator = torch.Generator().manual_seed(_seed_for(self.recipe.seed, step, self.ranks.rank))
         return TrainContext(step=step, epoch=epoch, stage=stage.name, values=values, generator=generator)
 
     def validate(self, step: int, stage: StageSpec) -> float | None:
@@ -259,11 +346,17 @@ class Trainer:
         losses = []
         with torch.no_grad():
             for i in range(self.t.val_batches):
-                motion, streams = self.val_sampler.batch(i, self.device)
+                if self.world > 1:  # each rank its slice of the batch one process would draw
+                    motion, streams = self.val_sampler.batch(i, self.device, self.t.batch_size, self._part())
+                else:
+                    motion, streams = self.val_sampler.batch(i, self.device)
                 with _autocast(self.device, self.precision):
                     losses.append(float(self.model.training_loss(motion, streams, self._context(step, stage))["loss"]))
         self.model.train()
-        return float(np.mean(losses))
+        mean = float(np.mean(losses))
+        if self.world > 1:
+            mean = float(distributed.all_sum(torch.tensor(mean, dtype=torch.float64))) / self.world
+        return mean
 
     def save(self, step: int, optimizer: torch.optim.Optimizer) -> Path:
         """Write the model checkpoint and the training state as one output set (both or neither)."""
@@ -274,6 +367,8 @@ class Trainer:
         return path
 
     def _log(self, record: dict) -> None:
+        if not self.ranks.main:
+            return
         with open(self.run_dir / LOG_FILE, "a", encoding="utf-8") as fh:
             fh.write(json.dumps(record) + "\n")
 
@@ -295,6 +390,8 @@ class Trainer:
         return ckpt.step
 
     def _trim_log(self, step: int) -> None:
+        if not self.ranks.main:
+            return
         path = self.run_dir / LOG_FILE
         if path.exists():
             lines = [ln for ln in path.read_text().splitlines() if ln and json.loads(ln).get("step", 0) <= step]
@@ -304,26 +401,52 @@ class Trainer:
         """Train to the last step (or to ``stop_at``), continuing the run in the folder when ``resume``;
         the run folder is locked meanwhile."""
         check_stop_at(stop_at, self.total)
+        if not self.ranks.main:
+            try:
+                return self._run(resume, stop_at)
+            finally:
+                self._release_stage()
         with run_lock(self.run_dir):
             sweep_stale_temps(self.run_dir, [MODEL_FILE, STATE_FILE, LOG_FILE, RECIPE_FILE])
-            return self._run(resume, stop_at)
+            try:
+                return self._run(resume, stop_at)
+            finally:
+                self._release_stage()
+
+    def _release_stage(self) -> None:
+        """Every parameter requires gradients again and the wrapped loss is dropped (the model is the
+        caller's again)."""
+        self._loss_module = None
+        for p in self.model.parameters():
+            p.requires_grad_(True)
 
     def _run(self, resume: bool, stop_at: int | None) -> TrainResult:
         start = 0
-        if resume:
-            start = self._resume()
+        if resume:  # rank 0 reads the run folder; the others get its step, run id, weights and optimizer state
+            start, self.run_id = distributed.on_main(lambda: (self._resume(), self.run_id))
+            distributed.broadcast_module(self.model)
             check_stop_at(stop_at, self.total, start)
             self._trim_log(start)
         else:
             self.run_id = run_id(self.recipe)
-            (self.run_dir / LOG_FILE).unlink(missing_ok=True)
-        write_text(self.run_dir / RECIPE_FILE, yaml.safe_dump(self.recipe.model_dump(mode="json"), sort_keys=False))
+            if self.ranks.main:
+                (self.run_dir / LOG_FILE).unlink(missing_ok=True)
+        if self.ranks.main:
+            text = yaml.safe_dump(self.recipe.model_dump(mode="json"), sort_keys=False)
+            write_text(self.run_dir / RECIPE_FILE, text)
         self.model.train()
         stage_index, _ = stage_at(self.stages, start)
         optimizer = self._optimizer(self.stages[stage_index])
         if resume and start < self.total:
             same_stage = start > 0 and stage_at(self.stages, start - 1)[0] == stage_index
-            load_train_state(self.run_dir / STATE_FILE, optimizer if same_stage else None)
+
+            def restore():
+                load_train_state(self.run_dir / STATE_FILE, optimizer if same_stage else None)
+                return distributed.to_cpu(optimizer.state_dict()) if same_stage and self.world > 1 else None
+
+            state = distributed.on_main(restore)
+            if state is not None and not self.ranks.main:
+                optimizer.load_state_dict(state)
         first = last = float("nan")
         val_loss = None
         checkpoint = self.run_dir / MODEL_FILE
@@ -348,33 +471,40 @@ class Trainer:
                 done = step + 1
                 if done % self.t.log_every == 0 or done == end:
                     now = time.perf_counter()
-                    rate = (done - tick_step) * (stage.batch_size or self.t.batch_size) / max(now - tick, 1e-9)
+                    segments = (stage.batch_size or self.t.batch_size) * self.world
+                    rate = (done - tick_step) * segments / max(now - tick, 1e-9)
                     tick, tick_step = now, done
                     self._log({"step": done, "stage": stage.name, "epoch": ctx.epoch, "lr": lr,
-                               "loss": loss, "segments_per_s": rate, **ctx.values, **getattr(self, "extras", {})})
+                               "loss": loss, "segments_per_s": rate, "world_size": self.world,
+                               **ctx.values, **getattr(self, "extras", {})})
                     if bar:
                         bar.update(task, info=f"loss {loss:.4f}  {rate:.0f} seg/s")
                 if done % self.t.val_every == 0 or done == end:
                     val_loss = self.validate(done, stage)
                     if val_loss is not None:
                         self._log({"step": done, "stage": stage.name, "val_loss": val_loss})
-                if done % self.t.checkpoint_every == 0 or done == end:
-                    checkpoint = self.save(done, optimizer)
+                if (done % self.t.checkpoint_every == 0 or done == end) and self.ranks.main:
+                    self.save(done, optimizer)
                 if bar:
                     bar.update(task, completed=done)
+        distributed.barrier()  # every rank returns once rank 0's last checkpoint is written
         return TrainResult(self.run_dir, checkpoint, end, first, last, val_loss)
 
     def _step(self, step: int, optimizer: torch.optim.Optimizer, ctx: TrainContext, size: int | None = None) -> float:
-        motion, streams = self.sampler.batch(step, self.device, size)
+        if self.world > 1:
+            motion, streams = self.sampler.batch(step, self.device, size or self.t.batch_size, self._part())
+            # dropout on ranks > 0 draws from (seed, step, rank): resumable whatever the number of ranks
+            torch.manual_seed(_seed_for(self.recipe.seed + 1, step, self.ranks.rank))
+        else:
+            motion, streams = self.sampler.batch(step, self.device, size)
+        forward = self._loss_module or _LossModule(self.model)
         with _autocast(self.device, self.precision):
-            losses = self.model.training_loss(motion, streams, ctx, self.t.augment)
+            losses = forward(motion, streams, ctx, self.t.augment)
         loss = losses["loss"]
-        #: the head's other scalar values (e.g. TM2D's codebook usage, per-branch cross-entropy), logged
+        #: the head's other scalar values (e.g. TM2D's codebook usage, per-branch cross-entropy), logged (rank 0's)
         self.extras = {k: float(v.detach()) for k, v in losses.items()
                        if k != "loss" and torch.is_tensor(v) and v.numel() == 1}
-        value = float(loss.detach())
-        if not math.isfinite(value):
-            self._stop(step, f"loss is {value}", ctx)
+        value = self._agree(step, loss, optimizer, ctx)
         optimizer.zero_grad(set_to_none=True)
         if self.scaler is not None:
             self.scaler.scale(loss).backward()
@@ -391,11 +521,37 @@ class Trainer:
             self.scaler.update()
         else:
             optimizer.step()
+        if self._drifted:  # a component changed parameters outside the optimizer, differently per rank
+            distributed.broadcast_module(self.model)
         return value
+
+    def _agree(self, step: int, loss: torch.Tensor, optimizer: torch.optim.Optimizer, ctx: TrainContext) -> float:
+        """The step's loss (the mean over ranks); a non-finite loss on any rank stops every rank here,
+        before the backward pass, with the same message. Several ranks also compare a fingerprint of
+        the parameters, to re-sync them after the step if a component changed them on its own."""
+        if self.world == 1:
+            value = float(loss.detach())
+            if not math.isfinite(value):
+                self._stop(step, f"loss is {value}", ctx)
+            return value
+        n, r = self.world, self.ranks.rank
+        mine = torch.zeros(2 * n, dtype=torch.float64)
+        mine[r] = float(loss.detach())
+        mine[n + r] = distributed.fingerprint([p for g in optimizer.param_groups for p in g["params"]])
+        both = distributed.all_sum(mine)
+        losses, prints = both[:n], both[n:]
+        bad = [i for i in range(n) if not math.isfinite(float(losses[i]))]
+        if bad:
+            where = ", ".join(f"{float(losses[i])} on rank {i}" for i in bad)
+            self._stop(step, f"loss is {where}", ctx)
+        self._drifted = bool((prints != prints[0]).any())
+        return float(losses.mean())
 
     def _stop(self, step: int, what: str, ctx: TrainContext) -> None:
         path = self.run_dir / MODEL_FILE
-        kept = f"last good checkpoint: {path}" if path.exists() else "no checkpoint was written yet"
+        kept = distributed.on_main(
+            lambda: f"last good checkpoint: {path}" if path.exists() else "no checkpoint was written yet"
+        )
         self._log({"step": step, "stage": ctx.stage, "error": what})
         raise TrainingError(
             f"training stopped at step {step} (stage {ctx.stage}): {what}; {kept} "
@@ -410,14 +566,26 @@ def train(
 
     ``stop_at`` (a step in ``1..training.steps``) and the run folder's lock are checked before any
     data is read; a folder this call created is removed again if the run fails before writing to it.
+    Started by torchrun (``RANK``/``WORLD_SIZE`` set), it joins the process group for the run and
+    trains on every rank (``dance_core.distributed``); rank 0 alone locks and writes the run folder.
     """
     check_stop_at(stop_at, sum(s.steps for s in recipe.training.stage_list()))
     run_dir = run_dir_for(recipe, out)
-    created = not run_dir.exists()
-    try:
-        with run_lock(run_dir):
-            return Trainer(recipe, run_dir, quiet).run(resume=resume, stop_at=stop_at)
-    except BaseException:
-        if created and run_dir.is_dir() and not any(run_dir.iterdir()):
-            run_dir.rmdir()
-        raise
+    with distributed.session(recipe.training.device) as ranks:
+        if not ranks.main:
+            distributed.share_outcome()  # raises rank 0's error if it could not lock the run folder
+            return Trainer(recipe, run_dir, quiet=True).run(resume=resume, stop_at=stop_at)
+        created = not run_dir.exists()
+        try:
+            with contextlib.ExitStack() as stack:
+                try:
+                    stack.enter_context(run_lock(run_dir))
+                except BaseException as exc:
+                    distributed.share_outcome(exc)
+                    raise
+                distributed.share_outcome(None)
+                return Trainer(recipe, run_dir, quiet).run(resume=resume, stop_at=stop_at)
+        except BaseException:
+            if created and run_dir.is_dir() and not any(run_dir.iterdir()):
+                run_dir.rmdir()
+            raise

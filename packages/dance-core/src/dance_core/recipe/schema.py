@@ -130,7 +130,7 @@ class TrainingSpec(Strict):
     """Optimization, schedules, devices, checkpoints and logging."""
 
     steps: PositiveInt = 1000
-    batch_size: PositiveInt = 32
+    batch_size: PositiveInt = Field(32, description="segments per step on each process (torchrun: per rank)")
     optimizer: OptimizerSpec = Field(default_factory=OptimizerSpec)
     lr_schedule: ComponentSpec = Field(default_factory=lambda: ComponentSpec(plugin="constant"))
     schedules: dict[str, ComponentSpec] = Field(
@@ -139,7 +139,10 @@ class TrainingSpec(Strict):
     grad_clip: PositiveFloat | None = 1.0
     device: Literal["auto", "cpu", "cuda", "mps"] = "auto"
     threads: PositiveInt | None = Field(None, description="CPU threads for torch (default: torch's choice)")
-    precision: Literal["auto", "fp32", "bf16", "fp16"] = "auto"
+    precision: Literal["auto", "fp32", "bf16", "fp16"] = Field(
+        "auto", description="autocast on CUDA (auto: bf16 on CUDA); a CPU run trains in fp32, with a note"
+    )
+    compile: bool = Field(False, description="torch.compile the training loss on CUDA (ignored on CPU, with a note)")
     val_every: PositiveInt = 200
     val_batches: PositiveInt = 4
     checkpoint_every: PositiveInt = 500
