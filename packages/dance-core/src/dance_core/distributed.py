@@ -134,7 +134,9 @@ def share_outcome(error: BaseException | None = None) -> None:
     message, known = broadcast_object()
     if message is not None:
         name, text = message
-        raise DanceError(text if known else f"rank 0 stopped: {name}: {text}")
+        error = DanceError(text if known else f"rank 0 stopped: {name}: {text}")
+        error.all_ranks = True  # rank 0 raised it too
+        raise error
 
 
 def on_main(fn: Callable[[], Any]) -> Any:

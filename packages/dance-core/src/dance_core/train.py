@@ -553,10 +553,12 @@ class Trainer:
             lambda: f"last good checkpoint: {path}" if path.exists() else "no checkpoint was written yet"
         )
         self._log({"step": step, "stage": ctx.stage, "error": what})
-        raise TrainingError(
+        error = TrainingError(
             f"training stopped at step {step} (stage {ctx.stage}): {what}; {kept} "
             "(lower training.optimizer.lr or set training.grad_clip)"
         )
+        error.all_ranks = True  # every rank raises this same message at this step
+        raise error
 
 
 def train(

@@ -131,12 +131,20 @@ def _text(given: str):
 
 
 def train(args: Namespace) -> int:
-    """``dance train``: check ``--stop-at`` and the run folder, then train."""
+    """``dance train``: check ``--stop-at`` and the run folder, then train (``--nproc-per-node N``:
+    relaunch this command on N processes through torch's launcher; under torchrun, rank 0 alone
+    prints, and an error every rank stopped with is printed once)."""
+    import os
+
     from dance_core.cli.checks import check_output_dir
     from dance_core.errors import DanceError
     from dance_core.train import run_dir_for
-    from dance_core.train import train as run
 
+    nproc = getattr(args, "nproc_per_node", None)
+    if nproc is not None and "RANK" in os.environ:
+        raise DanceError("--nproc-per-node: this process was already started by torchrun; give one or the other")
+    if "RANK" in os.environ and os.environ.get("RANK") != "0":
+        args.quiet = True
     recipe = _recipe(args)
     stages = recipe.training.stage_list()
     total = sum(s.steps for s in stages)
@@ -148,11 +156,39 @@ def train(args: Namespace) -> int:
     check_output_dir(run_dir, option)
     if args.resume and not run_dir.is_dir():
         raise DanceError(f"--resume: {option} {run_dir}: run folder not found; nothing to resume")
-    result = run(recipe, out=args.out, resume=args.resume, quiet=args.quiet, stop_at=args.stop_at)
+    if nproc is not None:
+        from dance_core.distributed import launch
+
+        return launch(_train_argv(args), nproc)
+    from dance_core.train import train as run
+
+    try:
+        result = run(recipe, out=args.out, resume=args.resume, quiet=args.quiet, stop_at=args.stop_at)
+    except DanceError as exc:
+        if os.environ.get("RANK", "0") != "0" and getattr(exc, "all_ranks", False):
+            raise SystemExit(1) from None  # every rank stopped with this message: rank 0 prints it, once
+        raise
+    if os.environ.get("RANK", "0") != "0":
+        return 0
     val = f", validation loss {result.val_loss:.4f}" if result.val_loss is not None else ""
     print(f"trained {result.steps} steps: loss {result.first_loss:.4f} -> {result.last_loss:.4f}{val}")
     print(result.checkpoint)
     return 0
+
+
+def _train_argv(args: Namespace) -> list[str]:
+    """The ``dance`` arguments each launched process runs: this ``train`` command without ``--nproc-per-node``."""
+    argv = [flag for flag, on in (("--debug", args.debug), ("--quiet", args.quiet), ("--strict", args.strict)) if on]
+    argv += ["train", args.recipe]
+    if args.out:
+        argv += ["--out", args.out]
+    if args.resume:
+        argv.append("--resume")
+    if args.stop_at is not None:
+        argv += ["--stop-at", str(args.stop_at)]
+    for value in args.sets:
+        argv += ["--set", value]
+    return argv
 
 
 def plugins(args: Namespace) -> int:

@@ -153,10 +153,14 @@ def _train_parser(sub) -> None:
     p = sub.add_parser(
         "train",
         help="train a recipe's model",
-        description="Train a recipe's model into a run folder (model.safetensors, training state, log, recipe).",
+        description="Train a recipe's model into a run folder (model.safetensors, training state, log, recipe). "
+        "Under torchrun, every process trains its share of each batch (DistributedDataParallel; "
+        "training.batch_size is per process) and rank 0 writes the run folder.",
         epilog=_examples(
             "dance train core-synthetic --out runs/demo --set training.steps=200",
             "dance train core-synthetic --out runs/demo --resume",
+            "dance train core-synthetic --out runs/demo --nproc-per-node 2",
+            "torchrun --nproc_per_node=4 $(which dance) train core-synthetic --out runs/demo",
         ),
     )
     p.add_argument("recipe", help="recipe file or bundled recipe name (dance recipe list)")
@@ -164,6 +168,9 @@ def _train_parser(sub) -> None:
     p.add_argument("--resume", action="store_true", help="continue the run in the run folder")
     p.add_argument("--stop-at", type=bounded_number(int, 1), metavar="STEP",
                    help="checkpoint and stop at this step (1 to the recipe's total steps)")
+    p.add_argument("--nproc-per-node", type=bounded_number(int, 1, 1024), metavar="N",
+                   help="train on N processes of this machine through torch's launcher, as torchrun "
+                   "--standalone --nproc-per-node N does (one per GPU; gloo on CPU)")
     _sets(p)
     p.set_defaults(run=commands.train)
 
