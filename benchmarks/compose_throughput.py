@@ -1,0 +1,100 @@
+"""Composition throughput of ``dance compose``: frames of dance written per second for 1, 4 and 16
+streams (samples of one song generated in one batch), end to end: the song's features, generation,
+decoding, grounding and the files written (the model is loaded once, outside the timing).
+
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/compose_throughput.py [--recipe default]
+        [--music SONG] [--seconds 10] [--streams 1 4 16] [--repeats 3]
+
+Prints one JSON object per configuration (the median of ``--repeats`` runs) and a Markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import torch
+
+from dance_core.compose import generate_song, load_model, load_song, seed_motion, write_song
+from dance_core.recipe import load_recipe
+from dance_core.registry import get_registry
+from dance_core.runtime import pick_device
+
+FIXTURE = "/work/shared/fixtures/audio/vibe_ace.ogg"
+
+
+def compose_once(recipe, model, ckpt, stack, song_path: str, out: Path, device) -> dict:
+    """One song composed with the recipe's ``compose.samples`` streams, timed phase by phase."""
+    c, registry = recipe.compose, get_registry()
+    formats = [(e, e.build()) for e in (registry.find("motion-format", f) for f in c.formats)]
+    seed = torch.from_numpy(seed_motion(None, ckpt, model.start_frames(), registry))
+    wall, cpu = time.perf_counter(), time.process_time()
+    song = load_song(song_path, stack, ckpt, c.seconds, registry)
+    t_features = time.perf_counter()
+    motion = generate_song(model, song, seed, recipe, device)
+    t_generate = time.perf_counter()
+    stems = [f"{song.name}-{k}" for k in range(c.samples)]
+    write_song(song, motion, stems, out, formats, ckpt, recipe, registry)
+    end, cpu = time.perf_counter(), time.process_time() - cpu
+    frames = c.samples * song.n_frames
+    return {
+        "frames": frames,
+        "wall_s": end - wall,
+        "features_s": t_features - wall,
+        "generate_s": t_generate - t_features,
+        "write_s": end - t_generate,
+        "cpu_s": cpu,
+        "frames_per_s": frames / (end - wall),
+        "generate_frames_per_s": frames / (t_generate - t_features),
+    }
+
+
+def main() -> None:
+    """Time every stream count and print the figures."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--recipe", default="default")
+    parser.add_argument("--music", default=FIXTURE)
+    parser.add_argument("--seconds", type=float, default=10.0)
+    parser.add_argument("--streams", type=int, nargs="+", default=[1, 4, 16])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--format", default="npz")
+    args = parser.parse_args()
+    print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, torch {torch.__version__}, "
+          f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS')}, load average {os.getloadavg()[0]:.2f}")
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for streams in args.streams:
+            recipe = load_recipe(args.recipe, [f"compose.samples={streams}", f"compose.seconds={args.seconds}",
+                                               f"compose.formats=[{args.format}]"])
+            device = pick_device(recipe.compose.device, recipe.compose.threads)
+            model, ckpt, stack = load_model(recipe, recipe.resolve_path(recipe.compose.checkpoint), device)
+            compose_once(recipe, model, ckpt, stack, args.music, Path(tmp), device)  # warm-up: JIT, caches
+            load = [os.getloadavg()[0]]
+            runs = []
+            for _ in range(args.repeats):
+                runs.append(compose_once(recipe, model, ckpt, stack, args.music, Path(tmp), device))
+                load.append(os.getloadavg()[0])
+            row = {key: round(statistics.median(r[key] for r in runs), 3) for key in runs[0]}
+            row.update(recipe=args.recipe, streams=streams, threads=torch.get_num_threads(),
+                       load=f"{min(load):.2f}-{max(load):.2f}", device=str(device),
+                       frames_per_s_range=[round(min(r["frames_per_s"] for r in runs), 1),
+                                           round(max(r["frames_per_s"] for r in runs), 1)])
+            print(json.dumps(row), flush=True)
+            rows.append(row)
+    print("\n| streams | frames | wall s | features s | generate s | decode+ground+write s | frames/s (all streams) "
+          "| generation frames/s | load |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['streams']} | {r['frames']} | {r['wall_s']:.2f} | {r['features_s']:.2f} | {r['generate_s']:.2f} "
+              f"| {r['write_s']:.2f} | {r['frames_per_s']:.0f} ({r['frames_per_s_range'][0]:.0f}-"
+              f"{r['frames_per_s_range'][1]:.0f}) | {r['generate_frames_per_s']:.0f} | {r['load']} |")
+
+
+if __name__ == "__main__":
+    main()
