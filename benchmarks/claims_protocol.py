@@ -1,0 +1,320 @@
+"""The claims benchmark's one protocol: data split, features, representation, training to a validation
+plateau, generation of several samples per test song, seed frames cut, scoring, and a result cache.
+
+Every family gets the same: ``synthetic-dance`` songs 0-11 for training (3 dances per song by different
+dancers, or the homogeneous control), songs 12+ for testing (a split by song), mirroring, the music
+features mel + onset (stream ``music``) and librosa-tracker beats (stream ``beat``), the motion
+representation root deltas + exponential maps at 20 fps, AdamW with a cosine schedule, and training to
+a validation plateau: validation every ``val_every`` steps, stop after ``patience`` checks without a 1 %
+improvement, keep the best checkpoint, never past the step budget. The first ``SEED_SECONDS`` of every
+dance (generated or real) are cut before scoring: that is where the rest-pose seed sits.
+
+Each finished run writes one JSON file into the cache folder, so a re-run skips it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+FPS = 20.0
+SEED_SECONDS = 2.0
+TRAIN_SONGS = 12
+DANCES = 3
+BPM = (80.0, 140.0)
+FEATURES = ("features={music: [{plugin: mel}, {plugin: onset}], "
+            "beat: [{plugin: beats, tracker: librosa}]}")
+METRICS = ["fid-k", "div-k", "fmd", "freezing", "beat-locking", "sample-diversity", "move-validity", "mpd"]
+
+
+@dataclass
+class Protocol:
+    """The sizes of one run of the protocol (``quick()`` for the smoke path)."""
+
+    seeds: int = 3
+    samples: int = 5
+    test_songs: int = 4
+    train_seconds: float = 24.0
+    test_seconds: float = 20.0
+    long_seconds: float = 300.0
+    long_songs: int = 2
+    steps: int = 200
+    dr_steps: int = 160
+    val_every: int = 25
+    patience: int = 3
+    batch_size: int = 32
+    temperatures: tuple[float, ...] = (0.5, 0.75, 1.0)
+    cache: Path = field(default_factory=lambda: Path("runs/claims-cache"))
+
+    @classmethod
+    def quick(cls, cache: Path) -> Protocol:
+        """CI sizes: one seed, two samples, two short test songs, a few steps."""
+        return cls(seeds=1, samples=2, test_songs=2, train_seconds=12.0, test_seconds=8.0, long_seconds=16.0,
+                   long_songs=1, steps=6, dr_steps=6, val_every=3, patience=1, batch_size=8, temperatures=(0.75, 1.0),
+                   cache=cache)
+
+    def dataset(self, homogeneous: bool = False) -> str:
+        """The training set override: 12 songs, 3 dances each (all dancers, or the homogeneous control)."""
+        return (f"data.dataset={{plugin: synthetic-dance, songs: {TRAIN_SONGS}, seconds: {self.train_seconds:g}, "
+                f"dances_per_song: {DANCES}, dancers: null, homogeneous: {str(homogeneous).lower()}, "
+                f"bpm: [{BPM[0]:g}, {BPM[1]:g}], dance_to_tracker: librosa}}")
+
+    def common(self, homogeneous: bool = False) -> list[str]:
+        """Overrides every family gets."""
+        return [
+            FEATURES,
+            "motion={plugin: rotations, rotation: expmap, root: deltas}",
+            self.dataset(homogeneous),
+            "fps=20",
+            "data.mirror=true",
+            "data.val_fraction=0.15",
+            "training.optimizer.lr=1.0e-3",
+            "training.optimizer.weight_decay=0.0",
+            "training.lr_schedule={plugin: cosine, warmup: 30}",
+            "training.grad_clip=1.0",
+            "training.threads=1",
+            "training.val_batches=4",
+            f"training.batch_size={self.batch_size}",
+            f"training.steps={self.steps}",
+            f"training.val_every={self.steps}",
+            f"training.checkpoint_every={self.steps}",
+            "compose.seed_motion=rest",
+            "compose.threads=1",
+        ]
+
+
+# ---------------------------------------------------------------- data
+
+
+def source(index: int, seconds: float, homogeneous: bool = False):
+    """Clip ``index`` (song ``index // 3``, dance ``index % 3``) of the protocol's generator."""
+    from dance_core.data.synthetic_dance import make_clip
+
+    return make_clip(index, seed=0, seconds=seconds, bpm=BPM, rate=22050, fps=FPS, dances_per_song=DANCES,
+                     tracker="librosa", dancers=None, homogeneous=homogeneous)
+
+
+def joint_clip(src, name: str | None = None, cut: float = SEED_SECONDS):
+    """A source's dance as a ``JointClip`` with its beats, the first ``cut`` seconds removed."""
+    from dance_core.protocols import JointClip
+
+    motion = src.motion.skeleton_motion
+    return trimmed(JointClip(name or src.name, motion.positions(), motion.fps, list(motion.skeleton.names),
+                             np.asarray(src.meta["beats"])), cut)
+
+
+def trimmed(clip, cut: float = SEED_SECONDS):
+    """The clip without its first ``cut`` seconds (beats shifted with it)."""
+    from dataclasses import replace
+
+    n = int(round(cut * clip.fps))
+    beats = None if clip.music_beats is None else np.asarray(clip.music_beats) - cut
+    kept = None if beats is None else beats[beats >= 0]
+    return replace(clip, positions=np.asarray(clip.positions)[n:], music_beats=kept)
+
+
+class TestSet:
+    """Test songs (WAV files written once into the cache) with their real dances and beats."""
+
+    def __init__(self, protocol: Protocol, seconds: float, songs: int, homogeneous: bool = False, tag: str = "test",
+                 dances: int = DANCES):
+        from dance_core.data.synthetic_dance import write_clip
+
+        self.seconds, self.homogeneous = seconds, homogeneous
+        first = TRAIN_SONGS * DANCES
+        self.sources = [source(first + s * DANCES + d, seconds, homogeneous)
+                        for s in range(songs) for d in range(dances)]
+        folder = protocol.cache / "songs" / f"{tag}-{'homo' if homogeneous else 'multi'}-{seconds:g}s"
+        self.songs, self.beats = [], {}
+        for src in self.sources[::dances]:
+            song = folder / f"{src.name.rsplit('-', 1)[0]}.wav"
+            if not song.exists():
+                written = write_clip(folder, src)
+                song = next(p for p in written if p.suffix == ".wav")
+                song = song.rename(folder / f"{src.name.rsplit('-', 1)[0]}.wav")
+            self.songs.append(song)
+            self.beats[song.stem] = np.asarray(src.meta["beats"])
+        self.real = [joint_clip(s) for s in self.sources]
+
+
+def reference_clips(protocol: Protocol, homogeneous: bool = False):
+    """The real dances of the training songs, seed span cut (the reference set of FID/FMD/MPD)."""
+    return [joint_clip(source(i, protocol.train_seconds, homogeneous)) for i in range(TRAIN_SONGS * DANCES)]
+
+
+# ---------------------------------------------------------------- training
+
+
+class _MemoClips:
+    """Feature extraction shared by every run of the process (same audio + features = same streams)."""
+
+    def __init__(self):
+        self.sources, self.streams = {}, {}
+
+    def install(self):
+        """Wrap ``dance_core.train``'s ``dataset_sources`` and ``to_clip`` with this process's memo."""
+        import dance_core.train as T
+        from dance_core.data.prepare import Clip, dataset_sources, to_clip
+
+        def sources(recipe):
+            key = json.dumps([recipe.data.dataset.model_dump(mode="json"), recipe.data.mirror, recipe.fps,
+                              recipe.motion.model_dump(mode="json") if recipe.motion else None], sort_keys=True)
+            if key not in self.sources:
+                self.sources[key] = dataset_sources(recipe)
+            return self.sources[key]
+
+        def clip(src, stack, registry):
+            if src.audio is None or abs(src.motion.fps - stack.fps) > 1e-6:
+                return to_clip(src, stack, registry)
+            key = (hashlib.sha1(np.ascontiguousarray(src.audio.samples).tobytes()).hexdigest(),
+                   json.dumps(stack.signature, sort_keys=True, default=str), stack.fps, len(src.motion.values))
+            if key not in self.streams:
+                self.streams[key] = to_clip(src, stack, registry)
+            done = self.streams[key]
+            n = len(done.motion)
+            return Clip(src.name, np.asarray(src.motion.values[:n]), done.streams, src.meta.get("song", ""))
+
+        T.dataset_sources, T.to_clip = sources, clip
+
+
+MEMO = _MemoClips()
+
+
+def trainer_class():
+    """``Trainer`` with a fixed validation context (every schedule at ``val_values``: a curriculum head is
+    validated teacher-forced, so its validation loss compares across steps) and a settable epoch length."""
+    from dance_core.train import Trainer
+
+    class PlateauTrainer(Trainer):
+        val_values: dict = {}
+
+        def validate(self, step, stage):
+            saved = self.schedules
+            self.schedules = {n: (lambda s, e, t, v=v: v) for n, v in self.val_values.items()} or saved
+            try:
+                return super().validate(step, stage)
+            finally:
+                self.schedules = saved
+
+    return PlateauTrainer
+
+
+def train_to_plateau(recipe, out: Path, protocol: Protocol, epoch_steps: int | None = None,
+                     val_values: dict | None = None) -> dict:
+    """Train in chunks of ``val_every`` steps, keep the best validation checkpoint, stop on a plateau.
+
+    Returns ``{"checkpoint", "best_step", "stopped", "val", "train_s"}``."""
+    if out.exists():
+        shutil.rmtree(out)
+    out.mkdir(parents=True)
+    t0 = time.perf_counter()
+    trainer = trainer_class()(recipe, out, quiet=True)
+    trainer.val_values = dict(val_values or {})
+    if epoch_steps:
+        trainer.steps_per_epoch = epoch_steps
+    best, best_step, waited, history, stopped = float("inf"), 0, 0, [], protocol.steps
+    best_path = out / "best.safetensors"
+    for k in range(protocol.val_every, protocol.steps + protocol.val_every, protocol.val_every):
+        k = min(k, protocol.steps)
+        result = trainer.run(resume=k > protocol.val_every, stop_at=k)
+        val = float(result.val_loss)
+        history.append([k, val])
+        if val < best - 0.01 * abs(best) or not np.isfinite(best):
+            best, best_step, waited = val, k, 0
+            shutil.copyfile(result.checkpoint, best_path)
+        else:
+            waited += 1
+        stopped = k
+        if waited >= protocol.patience or k >= protocol.steps:
+            break
+    return {"checkpoint": str(best_path), "best_step": best_step, "stopped": stopped, "val": history,
+            "train_s": time.perf_counter() - t0}
+
+
+# ---------------------------------------------------------------- generation and scoring
+
+
+def generate(recipe, checkpoint: str, songs: list[Path], beats: dict, samples: int, temperature: float = 1.0,
+             seconds: float | None = None, resample_to: float | None = FPS):
+    """``samples`` dances per song (``SONG-k``), as ``JointClip``s at ``resample_to`` fps with the songs'
+    beats, seed span cut; and the frames generated per second."""
+    import torch
+
+    from dance_core.compose import generate_song, grounded, load_model, load_song, seed_motion
+    from dance_core.data.prepare import decode_motion
+    from dance_core.protocols import JointClip
+    from dance_core.registry import get_registry
+
+    registry = get_registry()
+    recipe = recipe.model_copy(update={"compose": recipe.compose.model_copy(
+        update={"samples": samples, "temperature": temperature, "threads": 1})})
+    model, ckpt, stack = load_model(recipe, checkpoint, torch.device("cpu"))
+    seed = torch.from_numpy(seed_motion("rest", ckpt, model.start_frames(), registry))
+    clips, frames, t0 = [], 0, time.perf_counter()
+    for path in songs:
+        song = load_song(str(path), stack, ckpt, seconds, registry)
+        motion = generate_song(model, song, seed, recipe, torch.device("cpu"))
+        frames += motion.shape[0] * song.n_frames
+        for k in range(samples):
+            data = decode_motion(ckpt.motion, ckpt.stats.motion.invert(motion[k, : song.n_frames]), recipe.fps,
+                                 registry)
+            data = grounded(data, ckpt.motion, registry)
+            sm = data.skeleton_motion
+            if resample_to and abs(sm.fps - resample_to) > 1e-6:
+                sm = sm.resample(resample_to)
+            clip = JointClip(f"{path.stem}-{k}", sm.positions(), sm.fps, list(sm.skeleton.names), beats[path.stem])
+            clips.append(trimmed(clip))
+    return clips, frames / max(time.perf_counter() - t0, 1e-9)
+
+
+def score(generated, reference, metrics=METRICS) -> dict:
+    """The metrics' values as a flat dict of floats (skipped metrics absent)."""
+    from dance_core.evaluation.report import evaluate
+
+    report = evaluate(generated, reference, metrics)
+    return {k: float(v) for k, v in report.values().items() if v is not None}
+
+
+# ---------------------------------------------------------------- cache and summaries
+
+
+#: set by ``claims.py --cached-only``: report what the cache holds, run nothing new
+CACHED_ONLY = False
+
+
+def cached(protocol: Protocol, key: str, fn) -> dict | None:
+    """``fn()``'s JSON result, from ``cache/results/key.json`` when a previous run finished it (None when
+    it did not and ``CACHED_ONLY`` is set)."""
+    from dance_core.atomic import write_text
+
+    path = protocol.cache / "results" / f"{key}.json"
+    if path.exists():
+        return json.loads(path.read_text())
+    if CACHED_ONLY:
+        return None
+    result = fn()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_text(path, json.dumps(result, indent=1, default=float))
+    return result
+
+
+def spread(values) -> tuple[float | None, float | None]:
+    """Mean and standard deviation (over seeds) of the values that are not None."""
+    v = [float(x) for x in values if x is not None and np.isfinite(x)]
+    if not v:
+        return None, None
+    return float(np.mean(v)), float(np.std(v))
+
+
+def pm(values, digits: int = 3) -> str:
+    """``mean ± sd`` for a table cell (``n/a`` when nothing was measured)."""
+    m, s = spread(values)
+    if m is None:
+        return "n/a"
+    return f"{m:.{digits}g} ± {s:.1g}" if len(values) > 1 else f"{m:.{digits}g}"

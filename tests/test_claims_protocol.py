@@ -1,0 +1,90 @@
+"""The claims benchmark's protocol (benchmarks/claims_protocol.py, claims_curriculum.py): training stops on
+a validation plateau and keeps the best checkpoint, results are cached and skipped on a re-run, the seed
+span is cut before scoring, and the curriculum rates make q grow to its target over the run."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dance_core.protocols import JointClip
+from dance_core.recipe import load_recipe
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+@pytest.fixture
+def claims(monkeypatch):
+    """The benchmark modules, importable from benchmarks/."""
+    monkeypatch.syspath_prepend(str(BENCH))
+    import claims_curriculum
+    import claims_protocol
+
+    yield claims_protocol, claims_curriculum
+    for name in ("claims_protocol", "claims_curriculum", "claims_runs", "readme_section"):
+        sys.modules.pop(name, None)
+
+
+TINY = ["data.dataset.songs=4", "data.dataset.seconds=6", "training.batch_size=16", "training.log_every=5"]
+
+
+def test_training_stops_on_a_plateau_and_keeps_the_best_checkpoint(claims, tmp_path):
+    protocol_mod, _ = claims
+    protocol = protocol_mod.Protocol(steps=60, val_every=5, patience=2, cache=tmp_path)
+    still = load_recipe("core-synthetic", [*TINY, "training.steps=60", "training.optimizer.lr=1e-12"])
+    run = protocol_mod.train_to_plateau(still, tmp_path / "still", protocol)
+    # nothing learns at lr 1e-12: the first check is the best, two more without improvement stop it
+    assert run["best_step"] == 5 and run["stopped"] == 15 and len(run["val"]) == 3
+    learning = load_recipe("core-synthetic", [*TINY, "training.steps=60"])
+    run = protocol_mod.train_to_plateau(learning, tmp_path / "learns", protocol)
+    vals = dict((int(k), v) for k, v in run["val"])
+    best = run["best_step"]
+    assert vals[best] <= min(vals.values()) * 1.0101  # the best check, within the 1 % tolerance
+    assert run["stopped"] == min(best + 2 * 5, 60)  # two checks without a 1 % improvement, or the budget
+    assert all(vals[k] > vals[best] * 0.99 for k in vals if k > best)
+    assert Path(run["checkpoint"]).name == "best.safetensors" and Path(run["checkpoint"]).exists()
+
+
+def test_results_are_cached_and_a_cached_only_report_runs_nothing(claims, tmp_path):
+    protocol_mod, _ = claims
+    protocol = protocol_mod.Protocol(cache=tmp_path)
+    calls = []
+    first = protocol_mod.cached(protocol, "run-a", lambda: calls.append(1) or {"FMD": 0.5})
+    again = protocol_mod.cached(protocol, "run-a", lambda: calls.append(1) or {"FMD": 9.0})
+    assert first == again == {"FMD": 0.5} and len(calls) == 1
+    protocol_mod.CACHED_ONLY = True
+    try:
+        assert protocol_mod.cached(protocol, "run-b", lambda: calls.append(1) or {}) is None and len(calls) == 1
+    finally:
+        protocol_mod.CACHED_ONLY = False
+    assert protocol_mod.pm([1.0, 3.0]) == "2 ± 1" and protocol_mod.pm([None]) == "n/a"
+
+
+def test_the_seed_span_is_cut_and_the_beats_move_with_it(claims):
+    protocol_mod, _ = claims
+    positions = np.arange(100 * 2 * 3, dtype=float).reshape(100, 2, 3)
+    clip = JointClip("song-0", positions, 20.0, ["a", "b"], np.array([0.5, 1.5, 2.5, 4.0]))
+    cut = protocol_mod.trimmed(clip, 2.0)
+    assert len(cut.positions) == 60 and np.array_equal(cut.positions[0], positions[40])
+    assert np.allclose(cut.music_beats, [0.5, 2.0])
+
+
+def test_every_curriculum_reaches_its_q_in_the_last_epoch_and_starts_lower(claims):
+    from dance_core.registry import get_registry
+
+    _, curriculum = claims
+    registry = get_registry()
+    finals = {}
+    for label, override in curriculum.schedules():
+        spec = load_recipe("dancerevolution-small", [override]).training.schedules["auto_condition"]
+        fn = registry.create("schedule", spec.plugin, spec.options())
+        first, last = fn(0, 0, 100), fn(99, curriculum.EPOCHS - 1, 100)
+        finals[label] = last
+        if label not in ("teacher forcing", "const (q=10)"):
+            assert first < 10 <= last
+    assert finals["teacher forcing"] == 0 and finals["const (q=10)"] == 10
+    assert finals["linear"] == finals["quadratic"] == curriculum.Q_END
+    assert curriculum.Q_END - 2 <= finals["exponential"] <= curriculum.Q_END
