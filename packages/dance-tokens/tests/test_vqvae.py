@@ -41,3 +41,18 @@ def test_receptive_field_is_exact():
             assert diff[first] > 0, s  # and the boundary frame changes
             assert model.token_reach(first)[1] >= s
             assert first == 0 or model.token_reach(first - 1)[1] < s
+
+
+def test_velocity_and_acceleration_losses_add_the_differences_l1():
+    torch.manual_seed(0)
+    motion = torch.randn(2, 32, 6)
+    plain = vqvae()
+    smooth = vqvae(velocity=0.5, acceleration=2.0)
+    smooth.load_state_dict(plain.state_dict())
+    base, extra = plain.loss(motion), smooth.loss(motion)
+    assert "velocity" not in base
+    recon, _ = plain(motion)
+    vel = (recon.diff(dim=1) - motion.diff(dim=1)).abs().mean()
+    acc = (recon.diff(n=2, dim=1) - motion.diff(n=2, dim=1)).abs().mean()
+    assert torch.isclose(extra["velocity"], vel) and torch.isclose(extra["acceleration"], acc)
+    assert torch.isclose(extra["loss"], base["loss"] + 0.5 * vel + 2.0 * acc)

@@ -38,6 +38,10 @@ class TokenizerConfig(ComponentConfig):
         "l1", description="reconstruction loss: L1 as in the paper, or smooth L1 (Huber, beta 1; ours)"
     )
     crop: PositiveInt = Field(64, description="frames of each training crop")
+    velocity: float = Field(0.0, ge=0.0, description="weight of an L1 loss on the reconstruction's frame-to-frame "
+                            "differences (ours, as Bailando's and T2M-GPT's VQ-VAEs; 0: off, as in the paper)")
+    acceleration: float = Field(0.0, ge=0.0, description="weight of an L1 loss on its second differences "
+                                "(ours; 0: off): against the jitter a decoder adds between frames")
     restart_after: PositiveInt | None = Field(
         None, description="replace a code unused for this many training batches by a random encoder output "
         "(dead-code restart; null: off, as in the paper)"

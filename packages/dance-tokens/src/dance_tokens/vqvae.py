@@ -54,6 +54,7 @@ class MotionVQVAE(nn.Module):
         super().__init__()
         c = config
         self.downsample, self.recon = c.downsample, c.recon
+        self.velocity, self.acceleration = c.velocity, c.acceleration
         w = c.width
         layers = int(math.log2(c.downsample))
         enc: list[nn.Module] = [nn.Conv1d(motion_dim, w, 3, padding=1)]
@@ -91,13 +92,20 @@ class MotionVQVAE(nn.Module):
         return self.decode_codes(q.codes), q
 
     def loss(self, motion: torch.Tensor, generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:
-        """Reconstruction (L1, or smooth L1) + codebook + β · commitment, with the L1 error, codebook usage
-        and perplexity."""
+        """Reconstruction (L1, or smooth L1) + codebook + β · commitment, plus the optional L1 losses on the
+        first and second frame differences (``velocity``, ``acceleration`` weights), with the L1 error,
+        codebook usage and perplexity."""
         recon, q = self(motion, generator)
         l1 = F.l1_loss(recon, motion)
         fit = l1 if self.recon == "l1" else F.smooth_l1_loss(recon, motion)
+        out = {}
+        for order, weight, name in ((1, self.velocity, "velocity"), (2, self.acceleration, "acceleration")):
+            if weight > 0:
+                err = F.l1_loss(torch.diff(recon, n=order, dim=1), torch.diff(motion, n=order, dim=1))
+                fit = fit + weight * err
+                out[name] = err.detach()
         return {"loss": fit + self.quantizer.loss(q), "recon": l1.detach(), "commitment": q.commitment_loss.detach(),
-                "usage": q.usage, "perplexity": q.perplexity}
+                "usage": q.usage, "perplexity": q.perplexity, **out}
 
     def token_reach(self, frame: int) -> tuple[int, int]:
         """The tokens ``[first, last]`` decoded frame ``frame`` depends on (before clipping to the sequence)."""
