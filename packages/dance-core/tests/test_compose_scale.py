@@ -173,7 +173,7 @@ def test_summary_line_names_written_skipped_and_the_shard(noisy, tmp_path, capsy
         printed, err = capsys.readouterr()
         assert printed.split() == [str(out / "s1.npz"), str(out / "s3.npz")]
         assert f"composed 2 song(s) x 1: 4.5 s of dance, 2 file(s) in {out}, " in err
-        assert err.rstrip().endswith("frames/s; shard 2/2 of 2 song(s)")
+        assert err.rstrip().endswith("frames/s; shard 2/2 holds 2 song(s)")
         assert main(args) == 0
         printed, err = capsys.readouterr()
         assert printed == ""

@@ -219,6 +219,8 @@ def compose_songs(
                 bar.update(task, info=f"{song.name} ({i + 1}/{len(todo)}) × {c.samples}")
             motion = generate_song(model, song, seed, recipe, device, progress)
             result.written.extend(write_song(song, motion, stems[path], out, formats, ckpt, recipe, registry))
+            if bar:
+                bar.update(task, completed=i + 1)
             result.frames += c.samples * song.n_frames
             result.seconds += c.samples * song.n_frames / recipe.fps
     return result

@@ -112,7 +112,7 @@ def _compose_line(summary: dict) -> str:
     if summary["skipped_songs"]:
         line += f"; {len(summary['skipped_songs'])} song(s) skipped, already complete (--overwrite to redo)"
     if summary["shard"]:
-        line += f"; shard {summary['shard']} of {len(summary['songs'])} song(s)"
+        line += f"; shard {summary['shard']} holds {len(summary['songs'])} song(s)"
     return line
 
 
