@@ -288,6 +288,8 @@ class Trainer:
         self.run_id = run_id(recipe)
         self._loss_module: torch.nn.Module | None = None
         self._drifted = False
+        #: steps after which rank 0's parameters were sent to the others (they had drifted apart)
+        self.resyncs = 0
 
     def _warm_feature_cache(self, sources) -> None:
         """Several ranks: each extracts its share of the songs a dataset caches (``data.cache``) into the
@@ -523,6 +525,7 @@ class Trainer:
             optimizer.step()
         if self._drifted:  # a component changed parameters outside the optimizer, differently per rank
             distributed.broadcast_module(self.model)
+            self.resyncs += 1
         return value
 
     def _agree(self, step: int, loss: torch.Tensor, optimizer: torch.optim.Optimizer, ctx: TrainContext) -> float:
