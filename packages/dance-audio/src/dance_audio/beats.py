@@ -1,10 +1,12 @@
 """Beat and downbeat tracking and the ``beats`` extractor: one-hot beat and downbeat frames and the phase
 within beat and bar.
 
-Two trackers: ``librosa`` (the default: our equal implementation of librosa's dynamic-programming
-tracker, no model files) and ``madmom`` (madmom's DBN, reimplemented, on the downbeat RNN, which reads
+Three trackers: ``flux`` (the default: a bar-pointer HMM over beat phase and tempo on dance-audio's
+own spectral-flux activation, :mod:`.flux_beats`; follows tempo changes, no model files),
+``librosa`` (our equal implementation of librosa's dynamic-programming tracker, one global tempo,
+no model files) and ``madmom`` (madmom's DBN, reimplemented, on the downbeat RNN, which reads
 madmom's network weights, licensed CC BY-NC-SA 4.0, non-commercial). madmom's files are read only
-when asked for by name, or by ``auto`` (madmom when installed, else librosa), itself an opt-in.
+when asked for by name, or by ``auto`` (madmom when installed, else ``flux``), itself an opt-in.
 """
 
 from __future__ import annotations
@@ -63,28 +65,50 @@ def track_librosa(audio: Audio, beats_per_bar: list[int], min_bpm: float, max_bp
     onset = onset_strength(db, LIBROSA_FFT, LIBROSA_HOP, aggregate=np.mean)
     _, frames = beat_track(onset, LIBROSA_RATE / LIBROSA_HOP, start_bpm=float(np.sqrt(min_bpm * max_bpm)))
     times = frames * LIBROSA_HOP / LIBROSA_RATE
-    bar = max(beats_per_bar)
     strength = onset[frames] if len(frames) else np.zeros(0)
+    return Beats(times, bar_positions(strength, max(beats_per_bar)))
+
+
+def bar_positions(strength: np.ndarray, bar: int) -> np.ndarray:
+    """Positions 1..``bar`` of beats with onset ``strength``: bars start on the beat phase (modulo
+    ``bar``) whose beats have the most onset energy on average."""
     offset = int(np.argmax([strength[k::bar].mean() if len(strength[k::bar]) else 0.0 for k in range(bar)]))
-    positions = (np.arange(len(times)) - offset) % bar + 1
-    return Beats(times, positions.astype(np.int64))
+    return ((np.arange(len(strength)) - offset) % bar + 1).astype(np.int64)
 
 
-TRACKERS = ("librosa", "madmom", "auto")
+def track_flux(audio: Audio, beats_per_bar: list[int], min_bpm: float, max_bpm: float) -> Beats:
+    """The bar-pointer HMM on dance-audio's bass-weighted spectral flux (:mod:`.flux_beats`): tempo
+    may change from beat to beat; bars start on the beat phase with the most onset energy."""
+    from .flux_beats import FPS, track_times
+
+    times, env = track_times(audio.samples, audio.rate, min_bpm, max_bpm)
+    frames = np.round(times * FPS).astype(np.int64)
+    strength = np.array([env[max(0, f - 2) : f + 3].max() for f in frames]) if len(frames) else np.zeros(0)
+    return Beats(times, bar_positions(strength, max(beats_per_bar)))
+
+
+TRACKERS = ("flux", "librosa", "madmom", "auto")
+DEFAULT_TRACKER = "flux"
 
 
 def track_beats(
-    audio: Audio, tracker: str = "librosa", beats_per_bar=(3, 4), min_bpm: float = 55.0, max_bpm: float = 160.0
+    audio: Audio, tracker: str = DEFAULT_TRACKER, beats_per_bar=(3, 4), min_bpm: float = 55.0,
+    max_bpm: float = 160.0,
 ) -> Beats:
-    """Beats of a song by ``tracker``: ``librosa`` (default, no model files), ``madmom`` (reads madmom's
-    non-commercial weights), or ``auto`` (an opt-in: madmom when installed, else librosa)."""
+    """Beats of a song by ``tracker``: ``flux`` (default, no model files, follows tempo changes),
+    ``librosa`` (no model files, one tempo), ``madmom`` (reads madmom's non-commercial weights), or
+    ``auto`` (an opt-in: madmom when installed, else flux)."""
     from .madmom_compat import madmom_available
 
     if tracker not in TRACKERS:
         raise PluginError(f"beat tracker {tracker!r}: expected one of {', '.join(TRACKERS)}")
+    if not 0 < min_bpm < max_bpm:
+        raise PluginError(f"beat tracker tempo range {min_bpm}-{max_bpm} BPM: expected 0 < min_bpm < max_bpm")
     if tracker == "madmom" or (tracker == "auto" and madmom_available()):
         return track_madmom(audio, list(beats_per_bar), min_bpm, max_bpm)
-    return track_librosa(audio, list(beats_per_bar), min_bpm, max_bpm)
+    if tracker == "librosa" or (tracker == "auto" and DEFAULT_TRACKER == "librosa"):
+        return track_librosa(audio, list(beats_per_bar), min_bpm, max_bpm)
+    return track_flux(audio, list(beats_per_bar), min_bpm, max_bpm)
 
 
 class BeatFeatures:

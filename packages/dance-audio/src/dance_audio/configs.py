@@ -70,13 +70,15 @@ class BeatsConfig(ComponentConfig):
     danced tempo (AIST++ music spans 80-135 BPM), so the default stops there (madmom's is 215).
     """
 
-    tracker: Literal["librosa", "madmom", "auto"] = Field(
+    tracker: Literal["flux", "librosa", "madmom", "auto"] = Field(
         "librosa", json_schema_extra={"generation": True},
-        description="beat tracker: librosa (default; dance-audio's own implementation of librosa's, no model "
-        "files), madmom (madmom's DBN on its downbeat network, whose weight files are CC BY-NC-SA 4.0, "
-        "non-commercial: an opt-in, needs the dance-audio[madmom] extra) or auto (an opt-in too: madmom when "
-        "installed, else librosa). The columns mean the same whichever tracked them, so a model trained on "
-        "one tracker's beats may compose with another's",
+        description="beat tracker: flux (dance-audio's bar-pointer HMM over beat phase and tempo on its own "
+        "bass-weighted spectral flux: follows tempo changes, no model files), librosa (default; dance-audio's own "
+        "implementation of librosa's dynamic-programming tracker, one global tempo, no model files), madmom "
+        "(madmom's DBN on its downbeat network, whose weight files are CC BY-NC-SA 4.0, non-commercial: an opt-in, "
+        "needs the dance-audio[madmom] extra) or auto (an opt-in too: madmom when installed, else flux). The "
+        "columns mean the same whichever tracked them, so a model trained on one tracker's beats may compose "
+        "with another's",
     )
     beats_per_bar: list[PositiveInt] = Field(default_factory=lambda: [3, 4])
     min_bpm: PositiveFloat = 55.0
