@@ -189,11 +189,13 @@ def fingerprint(params: Sequence[torch.Tensor]) -> torch.Tensor:
     """A float64 scalar that changes with any parameter's values (a position-weighted sum of sums
     and sums of squares): ranks compare it to find parameters a component changed outside the
     optimizer (TM2D's dead-code restart draws new codes from each rank's own batch)."""
-    total = torch.zeros((), dtype=torch.float64)
+    if not params:
+        return torch.zeros((), dtype=torch.float64)
+    total = torch.zeros((), dtype=torch.float64, device=params[0].device)
     for i, p in enumerate(params):
         x = p.detach().double()
-        total = total + ((i + 1) * x.sum() + x.square().sum()).cpu()
-    return total
+        total = total + ((i + 1) * x.sum() + x.square().sum()).to(total.device)
+    return total.cpu()  # one device sync per step
 
 
 def to_cpu(value: Any) -> Any:
