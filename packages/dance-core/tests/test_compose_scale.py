@@ -181,6 +181,16 @@ def test_summary_line_names_written_skipped_and_the_shard(noisy, tmp_path, capsy
         assert "2 song(s) skipped, already complete (--overwrite to redo); shard 2/2" in err
 
 
+def test_an_empty_file_in_a_folder_stops_the_command_before_any_work(noisy, tmp_path, capsys):
+    songs = tmp_path / "songs"
+    songs.mkdir()
+    song(songs / "a.wav", 1.0)
+    (songs / "b.wav").write_bytes(b"")
+    assert run_compose(noisy, tmp_path / "out", "--music", str(songs)) == 1
+    assert capsys.readouterr().err.strip() == f"dance: error: --music {songs / 'b.wav'}: audio file is empty"
+    assert not (tmp_path / "out").exists()
+
+
 def test_songs_with_one_name_are_refused_across_shards(noisy, tmp_path):
     (tmp_path / "x").mkdir()
     twin = song(tmp_path / "x" / "s2.wav", 1.0)

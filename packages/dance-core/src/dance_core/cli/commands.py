@@ -61,7 +61,8 @@ def _compose_inputs(args: Namespace, recipe) -> tuple[list[str] | None, str | No
             from dance_core.compose import audio_files
             from dance_core.registry import get_registry
 
-            audio_files(check_input_dir(song, where), get_registry(), where)
+            for found in audio_files(check_input_dir(song, where), get_registry(), where):
+                check_input_file(found, where, "audio file")  # an empty file stops before any work
         else:
             check_input_file(song, where, "audio file")
     checkpoint = args.checkpoint or (recipe.resolve_path(c.checkpoint) if c.checkpoint else None)
