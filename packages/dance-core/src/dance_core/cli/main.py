@@ -141,7 +141,8 @@ def _compose_parser(sub) -> None:
                    help='text instruction, e.g. "20-30: a person jumps" (seconds; no span: the whole song; '
                         "repeatable; models that read text only)")
     p.add_argument("--shard", type=shard_arg, metavar="I/N",
-                   help="compose only part I of N (1-based): song k of the path-sorted list goes to part k mod N + 1")
+                   help="compose only part I of N (1-based): song k (from 0) of the path-sorted list goes to part "
+                        "k mod N + 1")
     p.add_argument("--overwrite", action="store_true",
                    help="compose songs whose output files all exist already (default: skip them)")
     p.add_argument("--json", action="store_true", help="print one JSON summary instead of the file names")
