@@ -296,6 +296,10 @@ class Trainer:
         cache, then all wait for each other and read every song from it. A song that fails here fails
         again, on every rank alike, when the clips are made."""
         cached = [s for s in sources if s.meta.get("feature_cache") and s.audio_path is not None]
+        songs: dict[tuple[str, str], object] = {}
+        for source in cached:  # a mirrored copy shares its song's features
+            songs.setdefault((str(source.audio_path), repr(source.texts)), source)
+        cached = list(songs.values())
         if self.world == 1 or not cached:
             return
         for source in cached[self.ranks.rank :: self.world]:
