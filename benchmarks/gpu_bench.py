@@ -1,7 +1,7 @@
 """The GPU path measured (issue 15): generation frames/s single-stream and batched, training samples/s
 and model FLOP utilisation in bf16, for paper-size Transflower, DanceRevolution and TM2D.
 
-    bash benchmarks/gpu.sh                 # on a GPU machine: the paper-size recipes, under 5 minutes
+    bash benchmarks/gpu.sh                 # on a GPU machine: the paper-size recipes (killed at 290 s)
     .venv/bin/python benchmarks/gpu_bench.py --smoke    # CPU: the small recipes, tiny sizes, seconds
 
 Untrained weights (weights do not change the cost) and random inputs of the recipes' widths. FLOPs are
@@ -9,7 +9,8 @@ counted with ``torch.utils.flop_counter.FlopCounterMode`` over one training step
 (the optimizer step not counted); MFU = counted FLOPs x steps/s / the device's peak dense bf16 FLOP/s,
 from ``PEAK_TFLOPS`` by device name or ``DANCE_PEAK_TFLOPS``. Precision follows the recipe's
 ``training.precision`` (``auto``: bf16 autocast on CUDA, fp32 on CPU) unless ``--precision`` is given;
-``--compile`` wraps the training loss in ``torch.compile``. Generation runs as ``dance compose`` does
+``--compile`` (or the recipe's ``training.compile`` on CUDA) wraps the training loss in
+``torch.compile``, compiled during the untimed warm-up steps. Generation runs as ``dance compose`` does
 (``ComposedModel.generate``, fp32), and with ``--gen-bf16`` also under bf16 autocast. Prints one JSON
 object per measurement (and writes them to ``--json``), then a table with the issue's targets beside.
 """
@@ -241,6 +242,8 @@ def measure(name: str, plan: dict, device: torch.device, precision: str | None, 
     model, motion_dim, dims = build(recipe, device)
     prec = precision or recipe.training.precision
     prec = ("bf16" if device.type == "cuda" else "fp32") if prec == "auto" else prec
+    # the recipe's training.compile (CUDA only, as the trainer applies it), or --compile anywhere
+    compile_loss = compile_loss or (bool(getattr(recipe.training, "compile", False)) and device.type == "cuda")
     base = {"recipe": name, "params_M": round(sum(p.numel() for p in model.parameters()) / 1e6, 2)}
     gens = [("fp32", 1, plan["gen_frames"])] + [("fp32", b, plan["batch_frames"]) for b in plan["batches"]]
     if gen_bf16 and device.type == "cuda":
