@@ -1,7 +1,7 @@
 """Dance quality of a model on real songs: beat locking, floor contact, smoothness, drift, speed.
 
     .venv/bin/python benchmarks/dance_quality.py [RECIPE] [--checkpoint PATH] [--music SONG ...]
-        [--samples N] [--tracker auto|madmom|librosa] [--set FIELD=VALUE ...] [--readme]
+        [--samples N] [--tracker auto|madmom|flux|librosa] [--set FIELD=VALUE ...] [--readme]
     .venv/bin/python benchmarks/dance_quality.py --motion-dir DIR [--music SONG ...]   # score BVH files
     .venv/bin/python benchmarks/dance_quality.py --reference                           # the synthetic dancer
 
@@ -336,9 +336,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--checkpoint", help="model checkpoint (default: the recipe's)")
     parser.add_argument("--music", nargs="+", type=Path, help=f"songs (default: {DEFAULT_MUSIC}/*.ogg)")
     parser.add_argument("--samples", type=int, default=1, help="dances per song (default 1)")
-    parser.add_argument("--tracker", default="librosa",
-                        help="dance-audio beat tracker: librosa (default), madmom or auto "
-                             "(madmom's weights are non-commercial: opt-in)")
+    parser.add_argument("--tracker", default="flux",
+                        help="dance-audio beat tracker: flux (default, the beats extractor's), librosa, madmom or "
+                             "auto (madmom's weights are non-commercial: opt-in)")
     parser.add_argument(
         "--set",
         dest="sets",

@@ -39,14 +39,19 @@ def test_beats_on_sample_match_hand_annotations(sample, annotated_beats):
     assert f_measure(beats.downbeats, times[positions == 1]) == 1.0
 
 
-def test_librosa_fallback_on_a_click_track(make_clicks, monkeypatch):
+@pytest.mark.parametrize("tracker", ["auto", "flux", "librosa"])
+def test_licence_clean_trackers_on_a_click_track(make_clicks, monkeypatch, tracker):
+    import dance_audio.beats as beats_module
     import dance_audio.madmom_compat as compat
 
     monkeypatch.setattr(compat, "madmom_available", lambda: False)  # as without the madmom extra
+    if tracker == "auto":  # without madmom, auto is the default tracker
+        monkeypatch.setattr(beats_module, "track_librosa", lambda *_: pytest.fail("auto fell back to librosa"))
     clicks = np.arange(0.5, 9.6, 0.5)  # 120 BPM
-    beats = track_beats(make_clicks(clicks, 10.0), "auto")
+    beats = track_beats(make_clicks(clicks, 10.0), tracker)
     assert f_measure(beats.times, clicks) >= 0.9
     assert set(beats.positions.tolist()) <= {1, 2, 3, 4}
+    assert np.count_nonzero(beats.positions == 1) in (len(clicks) // 4, len(clicks) // 4 + 1)
 
 
 def test_librosa_fallback_equals_librosas_own_tracker_on_real_music(sample, librosa):
@@ -103,7 +108,7 @@ def test_the_default_tracker_reads_no_madmom_file(make_clicks, monkeypatch):
     import dance_audio.beats as beats_module
     from dance_audio.configs import BeatsConfig
 
-    assert BeatsConfig().tracker == "librosa"
+    assert BeatsConfig().tracker == "flux"
 
     def no_madmom(*_):
         raise AssertionError("madmom's files were read")

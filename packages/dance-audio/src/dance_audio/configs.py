@@ -64,16 +64,17 @@ class DownbeatConfig(ComponentConfig):
 class BeatsConfig(ComponentConfig):
     """Beat and downbeat times as one-hot frames and phases (sin, cos) within beat and bar.
 
-    The default tracker reads no model file; madmom's (non-commercial weights) only when asked for.
+    The default tracker (``flux``) reads no model file and follows tempo changes; ``librosa`` (one global
+    tempo) stays selectable; madmom's (non-commercial weights) is read only when asked for.
 
     The tempo range is a dance prior: beyond 160 BPM trackers mostly return the double of the
     danced tempo (AIST++ music spans 80-135 BPM), so the default stops there (madmom's is 215).
     """
 
     tracker: Literal["flux", "librosa", "madmom", "auto"] = Field(
-        "librosa", json_schema_extra={"generation": True},
-        description="beat tracker: flux (dance-audio's bar-pointer HMM over beat phase and tempo on its own "
-        "bass-weighted spectral flux: follows tempo changes, no model files), librosa (default; dance-audio's own "
+        "flux", json_schema_extra={"generation": True},
+        description="beat tracker: flux (default; dance-audio's bar-pointer HMM over beat phase and tempo on its "
+        "own bass-weighted spectral flux: follows tempo changes, no model files), librosa (dance-audio's own "
         "implementation of librosa's dynamic-programming tracker, one global tempo, no model files), madmom "
         "(madmom's DBN on its downbeat network, whose weight files are CC BY-NC-SA 4.0, non-commercial: an opt-in, "
         "needs the dance-audio[madmom] extra) or auto (an opt-in too: madmom when installed, else flux). The "

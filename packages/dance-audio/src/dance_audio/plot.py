@@ -25,7 +25,7 @@ def require_plotting() -> None:
 def plot_song(audio: Audio, fps: float, out: Path) -> None:
     """Draw the 80-band log-mel, the onset envelope and the tracked beats (downbeats bold) to ``out``.
 
-    The beats are those of dance-audio's own tracker (librosa's method): no madmom file is read.
+    The beats are those of dance-audio's default tracker (`flux`): no madmom file is read.
     """
     require_plotting()
     import matplotlib.pyplot as plt
@@ -42,7 +42,7 @@ def plot_song(audio: Audio, fps: float, out: Path) -> None:
     onset = spectral_flux(db, np.mean)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        beats = track_beats(audio, "librosa")
+        beats = track_beats(audio, "flux")
     t_end = n / rate
     fig, (ax_mel, ax_onset) = plt.subplots(2, 1, figsize=(12, 6), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
     ax_mel.imshow(

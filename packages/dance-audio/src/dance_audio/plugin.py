@@ -45,7 +45,8 @@ def register_feature_extractors(register):
         "beats",
         c.BeatsConfig,
         f"{_M}.beats:build",
-        "beat and downbeat one-hots and phases (librosa's tracker; madmom's DBN opt-in, non-commercial) (6)",
+        "beat and downbeat one-hots and phases (our tempo-following HMM or librosa's tracker; madmom's DBN opt-in, "
+        "non-commercial) (6)",
     )
     register(
         "word-tokens",

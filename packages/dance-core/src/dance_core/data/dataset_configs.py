@@ -19,7 +19,7 @@ class SyntheticDanceConfig(ComponentConfig):
     sample_rate: PositiveInt = 22050
     motion_fps: PositiveFloat | None = Field(None, description="frame rate of the dancer; default the recipe's")
     seed: int = 0
-    dance_to_tracker: Literal["librosa", "madmom", "auto"] | None = Field(
+    dance_to_tracker: Literal["flux", "librosa", "madmom", "auto"] | None = Field(
         None, description="dance to the beats this tracker hears (the registered 'beats' extractor) instead of "
         "the true beats: the tempo octave a model reading that tracker's features will hear in real songs"
     )
