@@ -119,7 +119,7 @@ def claims_table(table: dict, tf: dict | None, cur: dict | None, protocol: Proto
             lines.append(row(label, table[key]))
     if cur and cur.get("linear"):
         lines.append(row("DanceRevolution (dancerevolution-small, linear curriculum)", cur["linear"],
-                         note="8-s segments, q → 30"))
+                         note="6.4-s segments (128 frames), q → 30"))
     if cur and cur.get("teacher forcing"):
         lines.append(row("DanceRevolution, pure teacher forcing", cur["teacher forcing"]))
     if table.get("tm2d"):

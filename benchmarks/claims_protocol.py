@@ -45,7 +45,7 @@ class Protocol:
     long_seconds: float = 300.0
     long_songs: int = 2
     steps: int = 200
-    dr_steps: int = 160
+    dr_steps: int = 120
     val_every: int = 25
     patience: int = 3
     batch_size: int = 32
@@ -246,7 +246,7 @@ def generate(recipe, checkpoint: str, songs: list[Path], beats: dict, samples: i
     beats, seed span cut; and the frames generated per second."""
     import torch
 
-    from dance_core.compose import generate_song, grounded, load_model, load_song, seed_motion
+    from dance_core.compose import generate_song, grounded, load_model, seed_motion
     from dance_core.data.prepare import decode_motion
     from dance_core.protocols import JointClip
     from dance_core.registry import get_registry
@@ -258,7 +258,7 @@ def generate(recipe, checkpoint: str, songs: list[Path], beats: dict, samples: i
     seed = torch.from_numpy(seed_motion("rest", ckpt, model.start_frames(), registry))
     clips, frames, t0 = [], 0, time.perf_counter()
     for path in songs:
-        song = load_song(str(path), stack, ckpt, seconds, registry)
+        song = song_inputs(path, stack, ckpt, registry)
         motion = generate_song(model, song, seed, recipe, torch.device("cpu"))
         frames += motion.shape[0] * song.n_frames
         for k in range(samples):
@@ -271,6 +271,24 @@ def generate(recipe, checkpoint: str, songs: list[Path], beats: dict, samples: i
             clip = JointClip(f"{path.stem}-{k}", sm.positions(), sm.fps, list(sm.skeleton.names), beats[path.stem])
             clips.append(trimmed(clip))
     return clips, frames / max(time.perf_counter() - t0, 1e-9)
+
+
+_RAW: dict = {}
+
+
+def song_inputs(path: Path, stack, ckpt, registry):
+    """``compose.load_song`` with the raw features kept for the process (every model composes the same
+    songs with the same features; only the standardization differs)."""
+    from dance_core.compose import Song
+    from dance_core.data.features import load_audio
+
+    key = (str(path), json.dumps(stack.signature, sort_keys=True, default=str), stack.fps)
+    if key not in _RAW:
+        audio = load_audio(str(path), registry)
+        _RAW[key] = stack.extract(audio.n_frames(stack.fps), audio, ())
+    raw = _RAW[key]
+    streams = {name: ckpt.stats.streams[name].apply(values) for name, values in raw.items()}
+    return Song(Path(path).stem, streams, len(next(iter(raw.values()))), str(path), ())
 
 
 def score(generated, reference, metrics=METRICS) -> dict:

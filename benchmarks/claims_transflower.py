@@ -23,6 +23,8 @@ def run(protocol: Protocol) -> dict:
         out[name] = {"gt": ground_truth(protocol, test, reference, f"gt-{name}")}
         for head, recipe, extra in (FLOW, REGRESSION):
             temps = protocol.temperatures if head == "flow" else (1.0,)
+            if head == "flow" and homogeneous and out["multimodal"]["flow"]:  # the control: the claim's T only
+                temps = (best_temperature(out["multimodal"]["flow"], protocol.temperatures),)
             runs = [run_family(protocol, f"tf-{name}-{head}", recipe, extra, seed, test, reference, temps, homogeneous)
                     for seed in range(protocol.seeds)]
             out[name][head] = [r for r in runs if r]
@@ -54,7 +56,8 @@ def table(result: dict, protocol: Protocol) -> list[str]:
         real = " | ".join(pm([r["gt"].get(k)]) for k, _ in COLS)
         lines.append(f"| {name} | real dances | — | {real} | — | — |")
         for head in ("flow", "regression"):
-            temps = protocol.temperatures if head == "flow" else (1.0,)
+            temps = [t for t in protocol.temperatures if any(f"{t:g}" in x["temperatures"] for x in r[head])]
+            temps = temps if head == "flow" else (1.0,)
             nll = pm([x["nll"] for x in r[head]])
             steps = pm([x["best_step"] for x in r[head]])
             for t in temps:
