@@ -41,6 +41,8 @@ _LAZY: dict[str, str] = {
     # helpers plugins need: audio in, files out
     **dict.fromkeys(("load_audio", "check_audio_path"), "dance_core.data.features"),
     **dict.fromkeys(("atomic_path", "write_bytes", "write_text"), "dance_core.atomic"),
+    # per-row random streams: heads draw noise through draw_rows (songs composed in one batch)
+    **dict.fromkeys(("RowGenerators", "draw_rows"), "dance_core.row_generators"),
     # command-line checks for plugin commands (register_commands): ranges while parsing, paths before work
     **dict.fromkeys(
         ("bounded_number", "check_input_file", "check_input_dir", "check_output_file", "check_output_dir"),
@@ -108,3 +110,4 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time the names load l
         Window,
     )
     from dance_core.registry import Entry, Registry, get_registry  # noqa: F401
+    from dance_core.row_generators import RowGenerators, draw_rows  # noqa: F401

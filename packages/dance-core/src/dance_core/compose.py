@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -20,6 +21,7 @@ from dance_core.progress import progress_bar
 from dance_core.protocols import MotionData
 from dance_core.recipe.schema import Recipe, TextSpec
 from dance_core.registry import Registry, get_registry
+from dance_core.row_generators import RowGenerators, supports_row_generators
 from dance_core.runtime import generation_threads, pick_device
 from dance_core.shards import Shard
 
@@ -180,7 +182,9 @@ def compose_songs(
     a song whose output set is complete (:func:`complete`) without loading the model for it.
 
     Each song is generated alone (:func:`generate_song`), so its dance is the same bytes whatever the
-    other songs, their order or the shard."""
+    other songs, their order or the shard. With ``compose.batch_songs`` k > 1 (and a head that draws
+    per row, after a windowed encoder: :func:`batching_note`) k songs at a time share a batch
+    (:func:`generate_songs`): equal to per-song generation within float rounding, not bit-identical."""
     c = recipe.compose
     registry = get_registry()
     checkpoint = checkpoint or (recipe.resolve_path(c.checkpoint) if c.checkpoint else None)
@@ -210,20 +214,46 @@ def compose_songs(
     model, ckpt, stack = load_model(recipe, checkpoint, device)
     start = model.start_frames()
     seed = torch.from_numpy(seed_motion(_beside_recipe(c.seed_motion, recipe), ckpt, start, registry))
+    per_batch = c.batch_songs
+    note = batching_note(model) if per_batch > 1 and len(todo) > 1 else None
+    if note:
+        per_batch = 1
+        if not quiet:
+            print(f"dance: note: compose.batch_songs={c.batch_songs}: {note}; composing one song at a time",
+                  file=sys.stderr)
     with progress_bar(quiet) as bar:
         task = bar.add_task("compose", total=len(todo), info=f"{len(todo)} song(s) × {c.samples}") if bar else None
-        for i, path in enumerate(todo):
-            song = load_song(path, stack, ckpt, c.seconds, registry, c.texts)
-            progress = (lambda t, i=i, n=song.n_frames: bar.update(task, completed=i + t / n)) if bar else None
+        for i in range(0, len(todo), per_batch):
+            paths = todo[i : i + per_batch]
+            songs = [load_song(path, stack, ckpt, c.seconds, registry, c.texts) for path in paths]
+            n, k = max(song.n_frames for song in songs), len(songs)
+            progress = (lambda t, i=i, n=n, k=k: bar.update(task, completed=i + k * t / n)) if bar else None
             if bar:
-                bar.update(task, info=f"{song.name} ({i + 1}/{len(todo)}) × {c.samples}")
-            motion = generate_song(model, song, seed, recipe, device, progress)
-            result.written.extend(write_song(song, motion, stems[path], out, formats, ckpt, recipe, registry))
+                names = ", ".join(song.name for song in songs)
+                bar.update(task, info=f"{names} ({i + len(songs)}/{len(todo)}) × {c.samples}")
+            if len(songs) == 1:
+                motions = [generate_song(model, songs[0], seed, recipe, device, progress)]
+            else:
+                motions = generate_songs(model, songs, seed, recipe, device, progress)
+            for path, song, motion in zip(paths, songs, motions, strict=True):
+                result.written.extend(write_song(song, motion, stems[path], out, formats, ckpt, recipe, registry))
+                result.frames += c.samples * song.n_frames
+                result.seconds += c.samples * song.n_frames / recipe.fps
             if bar:
-                bar.update(task, completed=i + 1)
-            result.frames += c.samples * song.n_frames
-            result.seconds += c.samples * song.n_frames / recipe.fps
+                bar.update(task, completed=i + len(songs))
     return result
+
+
+def batching_note(model: ComposedModel) -> str | None:
+    """Why this model's songs cannot share a batch (``compose.batch_songs``), or None when they can: the
+    head must draw its noise per row (:func:`dance_core.row_generators.supports_row_generators`) and the
+    encoder must be windowed (a song-level encoder has no padding mask and would read the padding)."""
+    head = type(model.head).__name__
+    if model.window.song_level:
+        return f"the encoder ({type(model.encoder).__name__}) reads the whole song, padding included"
+    if not supports_row_generators(model.head):
+        return f"the head ({head}) does not declare per-row random streams (row_generators)"
+    return None
 
 
 def write_song(
@@ -278,6 +308,55 @@ def generate_song(
     if not np.all(np.isfinite(motion)):
         raise DanceError(f"{song.path or song.name}: the model produced NaN or inf motion; nothing was written")
     return motion
+
+
+def generate_songs(
+    model: ComposedModel, songs: list[Song], seed: torch.Tensor, recipe: Recipe, device: torch.device,
+    progress=None,
+) -> list[np.ndarray]:
+    """``compose.samples`` dances of each of several songs generated in one batch, one ``(samples,
+    frames, D)`` array per song (normalized), each trimmed to its song's length.
+
+    Each song's music is padded with its last frame to the longest song (past its own end it is
+    what per-song generation reads there too), and its rows draw from their own generator, seeded as
+    :func:`generate_song` seeds it (:class:`RowGenerators`), so each song gets the noise it would get
+    alone. Its frames equal per-song generation within float rounding (a row's product is not
+    bit-identical at another batch size), and are deterministic for a given batch of songs. Only for
+    models :func:`batching_note` accepts."""
+    c = recipe.compose
+    longest = max(song.n_frames for song in songs)
+    names = list(songs[0].streams)
+    streams = {}
+    for name in names:
+        rows = []
+        for song in songs:
+            values = song.streams[name]
+            if len(values) < longest:
+                values = np.concatenate([values, np.repeat(values[-1:], longest - len(values), axis=0)])
+            rows.append(np.repeat(values[None], c.samples, axis=0))
+        streams[name] = torch.from_numpy(np.ascontiguousarray(np.concatenate(rows))).to(device)
+    batch = len(songs) * c.samples
+    generation_threads(model, batch, device, c.threads)
+    generator = RowGenerators.same_seed(recipe.seed, len(songs), c.samples, device)
+    torch.manual_seed(recipe.seed)
+    motion = model.generate(
+        streams,
+        longest,
+        seed.unsqueeze(0).expand(batch, -1, -1).to(device),
+        temperature=c.temperature,
+        keep=c.keep,
+        generator=generator,
+        progress=progress,
+    )
+    motion = motion.float().cpu().numpy()
+    out = []
+    for k, song in enumerate(songs):
+        part = motion[k * c.samples : (k + 1) * c.samples, : song.n_frames]
+        if not np.all(np.isfinite(part)):
+            raise DanceError(f"{song.path or song.name}: the model produced NaN or inf motion; nothing was written "
+                             "for it")
+        out.append(part)
+    return out
 
 
 def _suffix(entry) -> str:

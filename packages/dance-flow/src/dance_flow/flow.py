@@ -13,6 +13,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from dance_core import draw_rows
 from dance_flow.attention import Transformer
 
 SCALE_SHIFT = 2.0
@@ -296,8 +297,10 @@ class GaussianBase(nn.Module):
         return (-0.5 * z.square() - 0.5 * math.log(2 * math.pi)).sum((1, 2))
 
     def sample(self, shape, temperature: float, generator, device, dtype) -> torch.Tensor:
-        """Noise with standard deviation ``temperature``."""
-        z = torch.randn(shape, generator=generator, device=device, dtype=dtype)
+        """Noise with standard deviation ``temperature``; a :class:`dance_core.RowGenerators` draws each
+        group of rows from its own generator."""
+        z = draw_rows(generator, shape[0], lambda g, n: torch.randn((n, *shape[1:]), generator=g, device=device,
+                                                                    dtype=dtype))
         return z if temperature == 1.0 else z * temperature
 
 
@@ -317,7 +320,13 @@ class StudentTBase(nn.Module):
         return per_frame.sum(1)
 
     def sample(self, shape, temperature: float, generator, device, dtype) -> torch.Tensor:
-        """Student-t noise; the Gaussian part has standard deviation ``temperature``."""
+        """Student-t noise; the Gaussian part has standard deviation ``temperature``. A
+        :class:`dance_core.RowGenerators` draws each group of rows (its Gaussian, its chi-square seed and
+        rejection loop) from its own generator."""
+        return draw_rows(generator, shape[0],
+                         lambda g, n: self._sample((n, *shape[1:]), temperature, g, device, dtype))
+
+    def _sample(self, shape, temperature: float, generator, device, dtype) -> torch.Tensor:
         g = torch.randn(shape, generator=generator, device=device, dtype=dtype) * temperature
         seed = int(torch.randint(0, 2**62, (1,), generator=generator, device=device).item())
         gamma_gen = torch.Generator(device=device).manual_seed(seed)

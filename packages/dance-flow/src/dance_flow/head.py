@@ -14,7 +14,12 @@ from dance_flow.flow import FlowNet, base_distribution
 
 class FlowHead(nn.Module):
     """Models ``p(x_t..x_{t+N-1} | h)`` with a flow; ``h`` is ``(B, N, d)`` (one token per frame,
-    concatenated channel-wise inside every coupling). Loss: negative log-likelihood in bits/dim."""
+    concatenated channel-wise inside every coupling). Loss: negative log-likelihood in bits/dim.
+    Sampling draws through ``dance_core.draw_rows`` (the base distributions), so rows may carry their
+    own random streams (``row_generators``: songs composed in one batch)."""
+
+    #: noise is drawn per row group through dance_core.draw_rows (compose.batch_songs may batch songs)
+    row_generators = True
 
     def __init__(self, config, motion_dim: int, latent_dim: int):
         super().__init__()

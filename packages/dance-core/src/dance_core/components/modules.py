@@ -75,6 +75,8 @@ class RegressionHead(nn.Module):
     """Deterministic frames from the latent, trained with L1 or L2 (AI Choreographer's head)."""
 
     history_frames = 0
+    #: draws no noise, so rows of several songs may share a batch (compose.batch_songs)
+    row_generators = True
     latent_tokens = None
 
     def __init__(

@@ -190,6 +190,13 @@ class ComposeSpec(Strict):
     seconds: PositiveFloat | None = Field(None, description="length; default the whole song")
     temperature: float = Field(1.0, ge=0.0)
     samples: PositiveInt = 1
+    batch_songs: PositiveInt = Field(
+        1, description="songs generated in one batch (each padded with its last music frame to the longest, "
+        "then trimmed); 1: each song alone, the same bytes whatever it is composed with. Above 1 (for GPUs): "
+        "equal within float rounding to per-song generation, not bit-identical; deterministic for a given "
+        "batch composition. Models whose head does not draw per row, or with a song-level encoder, compose "
+        "one song at a time",
+    )
     keep: PositiveInt | None = Field(None, description="frames kept per step; default the head's")
     formats: list[str] = Field(default_factory=lambda: ["npz"])
     out_dir: str = "out"
