@@ -44,10 +44,14 @@ class RelativeBias(nn.Module):
         self._bias_cache: tuple[torch.Tensor, tuple, torch.Tensor] | None = None
 
     def index(self, positions: torch.Tensor) -> torch.Tensor:
-        """Bucket indices ``(L, L)`` for integer positions ``(L,)`` (cached for repeated calls)."""
+        """Bucket indices ``(L, L)`` for integer positions ``(L,)`` (cached for repeated calls). An index
+        computed under ``torch.inference_mode`` (generation) is an inference tensor that autograd may not
+        save, so outside inference mode it is computed again (and that normal tensor cached, which
+        inference mode may use)."""
         cached = self._cache
         if (
             cached is not None
+            and not (cached[1].is_inference() and not torch.is_inference_mode_enabled())
             and cached[0].shape == positions.shape
             and cached[0].device == positions.device
             and torch.equal(cached[0], positions)
@@ -67,7 +71,8 @@ class RelativeBias(nn.Module):
             return self.table(self.index(positions)).permute(2, 0, 1).unsqueeze(0).contiguous()
         key = (positions._version, weight._version, weight.data_ptr(), weight.dtype)
         hit = self._bias_cache
-        if hit is not None and hit[0] is positions and hit[1] == key:
+        if (hit is not None and hit[0] is positions and hit[1] == key
+                and not (hit[2].is_inference() and not torch.is_inference_mode_enabled())):
             return hit[2]
         bias = self.table(self.index(positions)).permute(2, 0, 1).unsqueeze(0).contiguous().detach()
         self._bias_cache = (positions, key, bias)
@@ -92,7 +97,8 @@ class EncoderLayer(nn.Module):
     def attend(self, x: torch.Tensor, bias: torch.Tensor | None) -> torch.Tensor:
         """Multi-head self-attention of ``(B, L, dim)`` with an additive logit bias."""
         b, length, dim = x.shape
-        q, k, v = F.linear(x, self.qkv.weight, self.qkv.bias).view(b, length, 3, self.heads, dim // self.heads).permute(2, 0, 3, 1, 4)
+        qkv = F.linear(x, self.qkv.weight, self.qkv.bias).view(b, length, 3, self.heads, dim // self.heads)
+        q, k, v = qkv.permute(2, 0, 3, 1, 4)
         if bias is not None and bias.dtype != q.dtype:
             bias = bias.to(q.dtype)
         p = self.attn_dropout if self.training else 0.0
