@@ -2,9 +2,11 @@
 any number of ranks, rank 0 alone writes, a NaN on one rank stops both with one message, and
 ``dance train --nproc-per-node`` launches the same through torch's launcher.
 
-Tolerance of the equivalence: 1e-5 on every weight after 40 AdamW steps (2 ranks x 8 segments
-against 1 x 16). The two runs differ only in the order of float reductions (each rank's mean over 8
-rows, averaged by the all-reduce, against one mean over 16); the observed difference is ~1e-7.
+Tolerance of the equivalence: after 40 AdamW steps (2 ranks x 8 segments against 1 x 16) no weight
+differs by more than 1 % of the largest change training made to any weight (observed: 3e-6 apart,
+0.05 moved). The two runs differ only in the order of float reductions (each rank's mean over 8 rows,
+averaged by the all-reduce, against one mean over 16), which AdamW can amplify for weights whose
+gradient is nearly zero; a wrong share of the batch moves the weights apart by the order of the change.
 """
 
 import json
@@ -26,7 +28,6 @@ from dance_core.train import Trainer, train
 sys.path.insert(0, str(Path(__file__).parent))
 import core_dist_workers as workers  # noqa: E402 - spawned ranks import it by this name
 
-ATOL = 1e-5
 BATCH = 8
 
 
@@ -77,7 +78,8 @@ def test_two_ranks_of_batch_b_reach_the_weights_of_one_rank_of_batch_2b(runs):
     assert world == 2 and steps0 == 40
     assert digest0 == digest1 and loss0 == loss1 and val0 == val1  # the ranks agree exactly
     a, s = weights(root / "a" / "model.safetensors"), weights(single.checkpoint)
-    assert max_difference(a, s) < ATOL
+    init = Trainer(workers.tiny(), root / "init", quiet=True).model.state_dict()
+    assert max_difference(a, s) < 0.01 * max_difference(s, init)
     assert val0 == pytest.approx(single.val_loss, rel=1e-5)
     assert loss0 == pytest.approx(single.last_loss, rel=1e-5)
     logged = [r["loss"] for r in records(root / "a") if "loss" in r]
@@ -106,7 +108,9 @@ def test_a_two_rank_run_resumes_on_one_rank(runs):
     torch.set_num_threads(1)
     resumed = train(workers.tiny(f"training.batch_size={2 * BATCH}"), out=str(root / "b"), quiet=True, resume=True)
     assert resumed.steps == 40
-    assert max_difference(weights(resumed.checkpoint), weights(single.checkpoint)) < ATOL
+    init = Trainer(workers.tiny(), root / "init", quiet=True).model.state_dict()
+    s = weights(single.checkpoint)
+    assert max_difference(weights(resumed.checkpoint), s) < 0.01 * max_difference(s, init)
     log = records(root / "b")
     assert [r["world_size"] for r in log if "loss" in r] == [2, 2, 1, 1]
 
