@@ -47,6 +47,7 @@ LOW_BANDS, LOW_WEIGHT = 10, 3.0
 MEAN_SECONDS, SCALE_SECONDS, FLOOR, PEAK, CROP = 0.5, 4.0, 0.02, 0.9, 0.1
 PRIOR_BPM, PRIOR_OCTAVES, PRIOR_WEIGHT = 110.0, 1.0, 1.0
 NUM_TEMPI, TRANSITION_LAMBDA, OBSERVATION_LAMBDA = 60, 100.0, 16
+CHUNK_FRAMES = 4096  # spectrogram frames computed at once
 
 
 def moving_mean(x: np.ndarray, width: int) -> np.ndarray:
@@ -80,13 +81,18 @@ def moving_max(x: np.ndarray, width: int) -> np.ndarray:
 def onset_envelope(samples: np.ndarray, rate: int) -> np.ndarray:
     """The bass-weighted SuperFlux onset envelope at :data:`FPS` (see the module docstring)."""
     from .spectral import mel_filterbank
-    from .stft import stft
+    from .stft import centred_frame_count, stft_at
     from .timing import resample
 
     y = resample(np.asarray(samples, dtype=np.float32), rate, RATE)
     if len(y) == 0:
         return np.zeros(0)
-    mel = np.abs(stft(y, N_FFT, HOP)) @ mel_filterbank(RATE, N_FFT, N_MELS, FMIN, FMAX).T
+    bank = mel_filterbank(RATE, N_FFT, N_MELS, FMIN, FMAX).T
+    n = centred_frame_count(len(y), HOP)
+    mel = np.empty((n, N_MELS), dtype=np.float32)
+    for lo in range(0, n, CHUNK_FRAMES):  # in chunks: a long song never holds its whole spectrogram
+        centres = np.arange(lo, min(n, lo + CHUNK_FRAMES)) * HOP
+        mel[lo : lo + len(centres)] = np.abs(stft_at(y, centres, N_FFT)) @ bank
     top = float(mel.max())
     if not top > 0:
         return np.zeros(len(mel))
