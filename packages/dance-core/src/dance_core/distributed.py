@@ -216,8 +216,13 @@ def launch(argv: list[str], nproc: int) -> int:
     """``python -m dance_core.cli.main ARGV`` on ``nproc`` local processes through torch's launcher
     (what ``torchrun --standalone --nproc-per-node N`` does); returns the exit code: 0, or 1 when a
     rank failed (its own message is above)."""
+    import signal
+
+    from torch.distributed.elastic.multiprocessing.api import SignalException
     from torch.distributed.elastic.multiprocessing.errors import ChildFailedError
     from torch.distributed.run import parse_args, run
+
+    from dance_core.atomic import Terminated
 
     if "OMP_NUM_THREADS" not in os.environ:  # torch's launcher would set it with a banner; same value, quietly
         os.environ["OMP_NUM_THREADS"] = "1"
@@ -237,6 +242,10 @@ def launch(argv: list[str], nproc: int) -> int:
             return 1
         ranks = ", ".join(f"rank {r} (exit code {f.exitcode})" for r, f in sorted(exc.failures.items()))
         raise DanceError(f"distributed training failed: {ranks}") from None
+    except SignalException as exc:  # the launcher stopped its ranks; say so as dance does for itself
+        if exc.sigval == signal.SIGTERM:
+            raise Terminated("terminated (SIGTERM)") from None
+        raise KeyboardInterrupt from None
     finally:
         for log, level in zip(quiet, levels, strict=True):
             log.setLevel(level)
