@@ -56,7 +56,8 @@ class NanOnRankPlugin:
 
 def session(root: str, batch: int) -> dict:
     """On each rank: a whole run (A), a run stopped at step 20 (B), a run whose loss turns NaN on
-    rank 1 (C); what each gave (an error as its type and message)."""
+    rank 1 (C), a run into a folder another live process has locked (D); what each gave (an error as
+    its type and message)."""
     from dance_core import distributed
     from dance_core.testing import registered_plugin
     from dance_core.train import Trainer, train
@@ -74,6 +75,11 @@ def session(root: str, batch: int) -> dict:
                 out["c"] = None
             except Exception as exc:
                 out["c"] = (type(exc).__name__, str(exc))
+        try:
+            train(tiny(f"training.batch_size={batch}"), out=f"{root}/d", quiet=True)
+            out["d"] = None
+        except Exception as exc:
+            out["d"] = str(exc)
     return out
 
 

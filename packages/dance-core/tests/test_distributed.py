@@ -48,6 +48,8 @@ def records(run):
 def runs(tmp_path_factory):
     """2 ranks x batch 8 (runs a, b, c of core_dist_workers.session) and 1 rank x batch 16."""
     root = tmp_path_factory.mktemp("dist")
+    (root / "d").mkdir()
+    (root / "d" / "train.lock").write_text(f"{os.getpid()}\n")  # this live process holds run d
     ranks = run_local(workers.session, 2, str(root), BATCH, timeout=240)
     for r in ranks:
         if isinstance(r, BaseException):
@@ -125,6 +127,13 @@ def test_a_nan_on_one_rank_stops_both_with_one_message(runs):
     assert load_checkpoint(root / "c" / "model.safetensors").step == 20
     errors = [r for r in records(root / "c") if "error" in r]
     assert errors == [{"step": 25, "stage": "main", "error": "loss is nan on rank 1"}]
+
+
+def test_an_error_only_rank_0_can_meet_stops_every_rank_with_its_message(runs):
+    root, ranks, _ = runs
+    assert ranks[0]["d"] == ranks[1]["d"]
+    assert "run folder is in use by another dance train" in ranks[0]["d"] and str(os.getpid()) in ranks[0]["d"]
+    assert sorted(p.name for p in (root / "d").iterdir()) == ["train.lock"]
 
 
 @pytest.mark.slow
