@@ -11,8 +11,10 @@ from ``PEAK_TFLOPS`` by device name or ``DANCE_PEAK_TFLOPS``. Precision follows 
 ``training.precision`` (``auto``: bf16 autocast on CUDA, fp32 on CPU) unless ``--precision`` is given;
 ``--compile`` (or the recipe's ``training.compile`` on CUDA) wraps the training loss in
 ``torch.compile``, compiled during the untimed warm-up steps. Generation runs as ``dance compose`` does
-(``ComposedModel.generate``, fp32), and with ``--gen-bf16`` also under bf16 autocast. Prints one JSON
-object per measurement (and writes them to ``--json``), then a table with the issue's targets beside.
+(``ComposedModel.generate``, fp32; a batch is that many songs as ``compose.batch_songs`` runs them
+where the model allows it, else one song's samples), and with ``--gen-bf16`` also under bf16
+autocast. Prints one JSON object per measurement (and writes them to ``--json``), then a table with
+the issue's targets beside.
 """
 
 from __future__ import annotations
@@ -29,11 +31,13 @@ from pathlib import Path
 import torch
 from torch.utils.flop_counter import FlopCounterMode
 
+from dance_core.compose import batching_note
 from dance_core.data.features import FeatureStack
 from dance_core.model import ComposedModel, build_model
 from dance_core.protocols import TrainContext
 from dance_core.recipe import load_recipe
 from dance_core.recipe.schema import Recipe
+from dance_core.row_generators import RowGenerators
 
 #: peak dense bf16 tensor FLOP/s (TFLOP/s) by a substring of ``torch.cuda.get_device_name()``
 PEAK_TFLOPS = {"H200": 989.0, "H100": 989.0, "GH200": 989.0, "A100": 312.0, "L40S": 362.0, "L4": 121.0,
@@ -108,22 +112,31 @@ def time_generation(
     batch: int, frames: int, precision: str = "fp32",
 ) -> dict:
     """Frames generated per second (all streams) by ``ComposedModel.generate`` after a short warm-up,
-    and seconds of generation per second of music (per stream)."""
+    and seconds of generation per second of music (per stream). A batch of several streams is
+    ``batch`` songs × 1 sample as ``compose.batch_songs`` runs it (each row its own song's music and
+    random stream) when the model allows it (``dance_core.compose.batching_note``), else one song ×
+    ``batch`` samples (``compose.samples``); the row says which (``songs``)."""
     model.eval()
     start = model.start_frames()
     total = start + frames
     streams = random_streams(dims, batch, total, device)
     seed = torch.zeros(batch, start, motion_dim, device=device)
-    gen = torch.Generator(device=device).manual_seed(0)
+    songs = batch if batch > 1 and batching_note(model) is None else 1
+
+    def generator():
+        if songs > 1:
+            return RowGenerators.same_seed(0, songs, 1, device)
+        return torch.Generator(device=device).manual_seed(0)
+
     warm = start + max(1, min(frames, 2 * model.head.frames))
     with autocast(device, precision):
-        model.generate({n: x[:, :warm] for n, x in streams.items()}, warm, seed, generator=gen)
+        model.generate({n: x[:, :warm] for n, x in streams.items()}, warm, seed, generator=generator())
         synchronize(device)
         wall = time.perf_counter()
-        model.generate(streams, total, seed, generator=gen)
+        model.generate(streams, total, seed, generator=generator())
         synchronize(device)
         wall = time.perf_counter() - wall
-    return {"what": "generate", "batch": batch, "frames": frames, "precision": precision,
+    return {"what": "generate", "batch": batch, "songs": songs, "frames": frames, "precision": precision,
             "seconds": round(wall, 4), "frames_per_s": round(batch * frames / wall, 1),
             "s_per_s_music": round(wall / (frames / recipe.fps), 5)}
 
@@ -250,10 +263,6 @@ def measure(name: str, plan: dict, device: torch.device, precision: str | None, 
         gens += [("bf16", b, f) for _, b, f in gens]
     for gen_precision, batch, frames in gens:
         emit({**base, **time_generation(model, recipe, dims, motion_dim, device, batch, frames, gen_precision)})
-    # a fresh model for training: caches filled under inference mode (dance-flow's relative-position
-    # index) cannot take part in autograd
-    del model
-    model, motion_dim, dims = build(recipe, device)
     for stage in plan.get("stages", [None]):
         batch = plan.get("train_batch") or stage_batch(recipe, stage)
         segment = plan.get("train_segment")
@@ -282,7 +291,8 @@ def table(rows: list[dict]) -> str:
             figure = f"{r['frames_per_s']:,.0f} frames/s"
             if r["recipe"].startswith("tm2d"):
                 figure += f", {r['s_per_s_music']:.4f} s per s of music"
-            what = f"generate {r['frames']} frames"
+            layout = f"{r['batch']} songs x 1" if r.get("songs", 1) > 1 else f"1 song x {r['batch']}"
+            what = f"generate {r['frames']} frames" + (f" ({layout})" if r["batch"] > 1 else "")
         else:
             mfu = "MFU n/a" if r["mfu"] is None else f"MFU {100 * r['mfu']:.1f} %"
             figure = f"{r['samples_per_s']:,.1f} samples/s, {r['tflops_achieved']:.2f} TFLOP/s, {mfu}"

@@ -51,6 +51,8 @@ def test_smoke_mode_measures_every_family_on_cpu(bench, monkeypatch, tmp_path):
     for recipe in ("transflower-small", "dancerevolution-small"):
         assert {(recipe, "generate", None, 1), (recipe, "generate", None, 3), (recipe, "train", None, 2)} <= by
     assert {("tm2d-small", "train", "tokenizer", 2), ("tm2d-small", "train", "prior", 2)} <= by
+    songs = {r["recipe"]: r["songs"] for r in rows if r["what"] == "generate" and r["batch"] == 3}
+    assert songs == {"transflower-small": 3, "dancerevolution-small": 1, "tm2d-small": 1}  # compose.batch_songs
     for r in rows:
         if r["what"] == "generate":
             assert r["frames_per_s"] > 0 and r["s_per_s_music"] > 0
