@@ -142,3 +142,45 @@ def test_bad_tempo_range_is_one_clear_error(make_clicks):
 
     with pytest.raises(PluginError, match="tempo range"):
         track_beats(make_clicks([0.5], 2.0), "flux", min_bpm=120.0, max_bpm=100.0)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_numpy_decoder_finds_the_path_of_the_dbn_kernel(seed):
+    """The flux tracker's NumPy Viterbi (no numba import) decodes the beat-only bar-pointer model
+    exactly as dance_audio.dbn's compiled kernel, prior included."""
+    import dataclasses
+
+    from dance_audio.dbn import bar_model, log_emissions
+    from dance_audio.flux_beats import OBSERVATION_LAMBDA, beat_viterbi, prior_transitions
+
+    rng = np.random.default_rng(seed)
+    frames = 1500
+    period = rng.uniform(40, 80)
+    p = 0.02 + 0.88 * np.exp(-0.5 * ((np.arange(frames) % period) / 2.0) ** 2) * rng.uniform(0.3, 1.0, frames)
+    p = np.clip(p + 0.1 * rng.random(frames), 0.02, 0.9)
+    model = bar_model(1, 60.0 * 100 / 160.0, 60.0 * 100 / 55.0, 60, 100.0, float(OBSERVATION_LAMBDA))
+    log_trans, periods = prior_transitions(model.log_trans, model.periods, 100.0)
+    ours = beat_viterbi(np.log(p), np.log((1 - p) / (OBSERVATION_LAMBDA - 1)), periods, model.on_beat[0], log_trans)
+    emit = log_emissions(np.stack([np.zeros_like(p), p], axis=1), OBSERVATION_LAMBDA)
+    _, _, kernel = dataclasses.replace(model, log_trans=log_trans).viterbi(emit)
+    assert ours.sum() > 20
+    np.testing.assert_array_equal(ours, kernel)
+
+
+def test_the_default_tracker_starts_without_numba():
+    """In a fresh process the flux tracker imports no numba (its start-up alone costs about a second
+    on the 2-core CI machine, more than decoding a song) and nothing heavier."""
+    import subprocess
+    import sys
+
+    script = (
+        "import sys, numpy as np\n"
+        "from dance_core import Audio\n"
+        "from dance_audio.beats import track_beats\n"
+        "y = np.zeros(22050 * 4, np.float32); y[::11025] = 1.0\n"
+        "beats = track_beats(Audio(y, 22050))\n"
+        "heavy = ('numba', 'torch', 'librosa', 'madmom', 'scipy.signal', 'scipy.ndimage', 'scipy.stats')\n"
+        "print(len(beats.times), sorted(m for m in heavy if m in sys.modules))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True).stdout.split()
+    assert int(out[0]) >= 4 and out[1:] == ["[]"]

@@ -23,7 +23,9 @@ The method, from first principles and the papers it borrows from:
   ``max_bpm``, the tempo may change at every beat (``exp(-100 |ratio - 1|)``), the first 1/16 of
   each beat emits the activation and the rest ``(1 - p) / 15``. Viterbi finds the jointly most
   likely tempo path and beat phase, so the tempo may drift and ramp (rubato), unlike the single
-  global tempo of Ellis' dynamic program (:mod:`.rhythm`).
+  global tempo of Ellis' dynamic program (:mod:`.rhythm`). The model is built by :mod:`.dbn`;
+  :func:`beat_viterbi` decodes it in NumPy (the compiled kernel's path, tested; numba's import
+  alone would cost more than the decoding), about 0.15 s per minute of music.
 * **Tempo prior.** Every beat entered at tempo ``T`` adds ``log N(log2 T; log2 110, 1)`` scaled by
   the beat's length over the mean length, i.e. a per-frame log-normal prior one octave wide
   around 110 BPM: among metrical levels the onsets support about equally, the one nearer common
@@ -35,8 +37,6 @@ against madmom's tracker on the fixture songs, it beats the librosa-method track
 """
 
 from __future__ import annotations
-
-import dataclasses
 
 import numpy as np
 
@@ -130,22 +130,88 @@ def tempo_log_prior(bpm: np.ndarray) -> np.ndarray:
     return -0.5 * ((np.log2(bpm) - np.log2(PRIOR_BPM)) / PRIOR_OCTAVES) ** 2
 
 
+def beat_viterbi(log_beat: np.ndarray, log_none: np.ndarray, periods: np.ndarray, on_beat: np.ndarray,
+                 log_trans: np.ndarray) -> np.ndarray:
+    """Per frame, whether the most probable state is in a beat range, for the beat-only bar-pointer HMM
+    (one beat per bar): the path :class:`.dbn.BarModel` decodes with its numba kernel, here in NumPy
+    without importing numba (whose start-up costs more than this decoder takes on a song).
+
+    ``log_beat`` / ``log_none``: per frame the log emission of beat-range and other states;
+    ``periods``: the chains' lengths (frames per beat at each tempo); ``on_beat``: how many leading
+    states of each chain are in the beat range (at least one, fewer than the period);
+    ``log_trans[j, i]``: from the end of chain ``j`` into the start of chain ``i``. The start is
+    uniform over all states. Inside a chain the path is fixed, so only beat starts are decoded (a
+    semi-Markov recursion over ``(frame, tempo)``): ``start[t, i]``, the best score of entering tempo
+    ``i``'s chain at frame ``t``, from the chain ends at ``t - 1``, whose scores are the start
+    ``periods[j] - 1`` frames earlier plus that beat's emissions (cumulative sums). Frames before the
+    first are padded with chains that started with the uniform score and emit nothing.
+    """
+    periods = np.asarray(periods, dtype=np.int64)
+    on_beat = np.asarray(on_beat, dtype=np.int64)
+    n, frames, pad = len(periods), len(log_beat), int(periods.max())
+    if frames == 0:
+        return np.zeros(0, dtype=bool)
+    cols = np.arange(n)
+    log_init = np.log(1.0 / float(periods.sum()))
+    # padded time: index x is frame x - pad; emissions are 0 before frame 0
+    cum_beat = np.concatenate((np.zeros(pad + 1), np.cumsum(log_beat)))
+    cum_none = np.concatenate((np.zeros(pad + 1), np.cumsum(log_none)))
+    start = np.full((frames + pad, n), log_init)
+    back = np.zeros((frames, n), dtype=np.int64)
+    # a chain entered at padded index x: its score at its end x + L - 1 adds, after the start frame,
+    # on_beat - 1 beat emissions and L - on_beat others
+    end_rows = np.arange(pad - 1, pad + frames - 1)[:, None]  # the chain ends that lead into frames 0..
+    entered = end_rows - periods + 1
+    gain = cum_beat[entered + on_beat] - cum_beat[entered + 1]
+    gain += cum_none[end_rows + 1] - cum_none[entered + on_beat]
+    into = np.ascontiguousarray(np.asarray(log_trans, dtype=np.float64).T)  # [i, j]: from j into i
+    flat = start.reshape(-1)  # a view: row-major (padded frame, tempo)
+    where = entered * n + cols  # flat index of each chain's start, per frame
+    for t in range(frames):
+        candidates = into + (flat[where[t]] + gain[t])
+        best = candidates.argmax(axis=1)
+        back[t] = best
+        start[pad + t] = candidates[cols, best] + log_beat[t]
+    # the best state at the last frame: chain i entered at padded x in (last - L_i, last]
+    last = pad + frames - 1
+    best_score, best_chain, best_entry = -np.inf, 0, last
+    for i in range(n):
+        x = np.arange(last - periods[i] + 1, last + 1)
+        on = np.minimum(last, x + on_beat[i] - 1)
+        score = start[x, i] + (cum_beat[on + 1] - cum_beat[x + 1])
+        rest = cum_none[last + 1] - cum_none[np.minimum(x + on_beat[i], last + 1)]
+        score += np.where(last >= x + on_beat[i], rest, 0.0)
+        k = int(np.argmax(score))
+        if score[k] > best_score:
+            best_score, best_chain, best_entry = float(score[k]), i, int(x[k])
+    in_range = np.zeros(frames, dtype=bool)
+    if not np.isfinite(best_score):
+        return np.zeros(0, dtype=bool)
+    chain, entry = best_chain, best_entry
+    while True:
+        lo, hi = max(entry, pad), min(entry + on_beat[chain], last + 1)
+        in_range[lo - pad : max(lo, hi) - pad] = True
+        if entry < pad:  # a chain already under way at the first frame
+            break
+        chain_before = back[entry - pad, chain]
+        entry, chain = entry - periods[chain_before], chain_before
+    return in_range
+
+
 def decode_beats(p: np.ndarray, min_bpm: float, max_bpm: float, fps: float = FPS) -> np.ndarray:
     """Beat frames (indices into ``p``) by Viterbi over the beat-only bar-pointer model with the tempo
     prior, each on the largest activation of its beat range (empty for fewer than two frames)."""
-    from .dbn import bar_model, log_emissions
+    from .dbn import bar_model
 
     if len(p) < 2:
         return np.zeros(0, dtype=np.int64)
     model = bar_model(1, 60.0 * fps / max_bpm, 60.0 * fps / min_bpm, NUM_TEMPI, TRANSITION_LAMBDA,
                       float(OBSERVATION_LAMBDA))
-    periods = model.periods.astype(np.float64)
-    bias = PRIOR_WEIGHT * tempo_log_prior(60.0 * fps / periods) * periods / periods.mean()
-    model = dataclasses.replace(model, log_trans=model.log_trans + bias[None, :])
-    # one beat per bar: the bar's first beat emits the "downbeat" column
-    emit = log_emissions(np.stack([np.zeros_like(p), p], axis=1), OBSERVATION_LAMBDA)
-    _, beat_index, on_beat = model.viterbi(emit)
-    if len(beat_index) == 0:
+    log_trans, periods = prior_transitions(model.log_trans, model.periods, fps)
+    p = np.asarray(p, dtype=np.float64)
+    on_beat = beat_viterbi(np.log(p), np.log((1.0 - p) / (OBSERVATION_LAMBDA - 1)), periods, model.on_beat[0],
+                           log_trans)
+    if len(on_beat) == 0:
         return np.zeros(0, dtype=np.int64)
     edges = np.flatnonzero(np.diff(on_beat.astype(np.int8))) + 1
     if on_beat[0]:
@@ -153,6 +219,15 @@ def decode_beats(p: np.ndarray, min_bpm: float, max_bpm: float, fps: float = FPS
     if on_beat[-1]:
         edges = np.r_[edges, len(on_beat)]
     return np.array([lo + int(np.argmax(p[lo:hi])) for lo, hi in edges.reshape(-1, 2)], dtype=np.int64)
+
+
+def prior_transitions(log_trans: np.ndarray, periods: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """The tempo transitions with the tempo prior added to every beat entered at a tempo (scaled by
+    the beat's length over the mean length, so it weighs per frame), and the periods."""
+    periods = np.asarray(periods)
+    length = periods.astype(np.float64)
+    bias = PRIOR_WEIGHT * tempo_log_prior(60.0 * fps / length) * length / length.mean()
+    return log_trans + bias[None, :], periods
 
 
 def track_times(samples: np.ndarray, rate: int, min_bpm: float = 55.0, max_bpm: float = 160.0
