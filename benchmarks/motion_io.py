@@ -38,7 +38,8 @@ def main() -> None:
     from dance_core.render.preview import render
 
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    print(f"machine: {platform.processor() or platform.machine()}, {cores} usable cores, python {platform.python_version()}")
+    machine = platform.processor() or platform.machine()
+    print(f"machine: {machine}, {cores} usable cores, python {platform.python_version()}")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         timed(f"dance synth: {args.songs} songs x {args.seconds:g} s at 60 fps, {args.jobs} jobs",

@@ -138,7 +138,8 @@ def test_threads_option_sets_torch_threads(tiny_recipe, checkpoint, tmp_path):
     before = torch.get_num_threads()
     try:
         s = song(tmp_path / "s.wav", 1.0)
-        compose(tiny_recipe("compose.threads=1"), music=[s], checkpoint=str(checkpoint), out_dir=str(tmp_path), quiet=True)
+        compose(tiny_recipe("compose.threads=1"), music=[s], checkpoint=str(checkpoint), out_dir=str(tmp_path),
+                quiet=True)
         assert torch.get_num_threads() == 1
     finally:
         torch.set_num_threads(before)

@@ -122,7 +122,8 @@ class RegressionHead(nn.Module):
 
 
 def build_regression_head(
-    config, *, motion_dim: int, latent_dim: int, latent_tokens: int | None = None, window: Window | None = None, **_: Any
+    config, *, motion_dim: int, latent_dim: int, latent_tokens: int | None = None, window: Window | None = None,
+    **_: Any,
 ) -> RegressionHead:
     """Build the ``regression`` head (frame-aligned after a song-level encoder)."""
     aligned = window is not None and window.song_level
