@@ -2,7 +2,7 @@
 
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/text_spans.py [RECIPE] [--checkpoint PATH]
         [--music SONG ...] [--moves jump clap ...] [--fusion 0 0.4 0.8 1.0] [--samples 3]
-        [--validate N] [--json OUT] [--readme]
+        [--validate N] [--set FIELD=VALUE ...] [--json OUT] [--readme]
 
 For every song (default: the fixture songs ``../shared/fixtures/audio/*.ogg``, which no model here
 trained on), the recipe's model (default ``tm2d-small`` with its bundled weights) composes
@@ -56,12 +56,13 @@ MARGIN = 0.2  # share of seconds
 PAPER_FUSION = 0.8
 
 
-def load(recipe: str, checkpoint: str | None, fusion: float | None, samples: int):
-    """The recipe (with ``model.head.fusion`` and ``compose.samples`` set), its model, checkpoint and features."""
+def load(recipe: str, checkpoint: str | None, fusion: float | None, samples: int, extra: list[str] = ()):
+    """The recipe (with ``model.head.fusion``, ``compose.samples`` and ``extra`` overrides set), its model,
+    checkpoint and features."""
     from dance_core.compose import load_model
     from dance_core.recipe import load_recipe
 
-    sets = [f"compose.samples={samples}"] + ([f"model.head.fusion={fusion}"] if fusion is not None else [])
+    sets = [*extra, f"compose.samples={samples}"] + ([f"model.head.fusion={fusion}"] if fusion is not None else [])
     r = load_recipe(recipe, sets)
     path = checkpoint or r.resolve_path(r.compose.checkpoint)
     model, ckpt, stack = load_model(r, path, __import__("torch").device("cpu"))
@@ -201,6 +202,11 @@ def report(results: dict, args, moves: list[str], fusions: list[float], songs: l
             lines.append(f"| {m} | {f:g} | **{ms(r['inside'])}** | {ms(music['inside'])} | {ms(r['before'])} | "
                          f"{ms(r['after'])} |")
     word, steered = verdict(results, moves, PAPER_FUSION if PAPER_FUSION in fusions else fusions[-1])
+    same = results.get("fusion0_equals_music")
+    if same:
+        lines += ["", f"Fusion 0 (the text branch never runs) gave the music-only dances bit for bit on "
+                  f"{sum(same)}/{len(same)} songs (checked with the first move; the other moves' fusion-0 rows "
+                  "reuse the music-only dances)."]
     lines += ["", f"Moves steered at fusion {PAPER_FUSION:g} (inside with text ≥ {MARGIN} above both music-only "
               f"inside and after the span): {', '.join(steered) or 'none'} ({len(steered)}/{len(moves)})."]
     return "\n".join(lines) + "\n", word, steered
@@ -216,6 +222,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--fusion", nargs="+", type=float, default=[0.0, 0.4, 0.8, 1.0])
     p.add_argument("--samples", type=int, default=3)
     p.add_argument("--validate", type=int, default=30, help="synthetic dances to validate the detectors on (0: skip)")
+    p.add_argument("--set", dest="sets", action="append", default=[], help="recipe override (repeatable)")
     p.add_argument("--json", type=Path, help="write every share here")
     p.add_argument("--date", default=datetime.date.today().isoformat())
     p.add_argument("--readme", action="store_true")
@@ -232,8 +239,8 @@ def main(argv: list[str] | None = None) -> int:
     empty = lambda: {"before": [], "inside": [], "after": []}  # noqa: E731
     results = {"music": {m: empty() for m in args.moves},
                "text": {m: {str(f): empty() for f in args.fusion} for m in args.moves}}
-    recipe, model, ckpt, stack = load(args.recipe, args.checkpoint, None, args.samples)
-    models = {f: load(args.recipe, args.checkpoint, f, args.samples) for f in args.fusion}
+    recipe, model, ckpt, stack = load(args.recipe, args.checkpoint, None, args.samples, args.sets)
+    models = {f: load(args.recipe, args.checkpoint, f, args.samples, args.sets) for f in args.fusion}
     for song in songs:
         streams, n, _ = song_streams(song, stack, ckpt)
         seconds = n / stack.fps
@@ -247,8 +254,11 @@ def main(argv: list[str] | None = None) -> int:
             text_streams, _ = with_text(streams, stack, ckpt, n, PROMPTS[m], start, end)
             for f in args.fusion:
                 r_f, model_f, _, _ = models[f]
-                steered = dances(model_f, r_f, ckpt, text_streams, n, song.stem)
-                if f == 0:  # no text weight anywhere: the music-only dance itself
+                if f == 0 and m != args.moves[0]:  # checked below on the first move: the music-only dance
+                    steered = plain
+                else:
+                    steered = dances(model_f, r_f, ckpt, text_streams, n, song.stem)
+                if f == 0 and m == args.moves[0]:  # no text weight anywhere: the music-only dance itself
                     same = all(np.array_equal(a, b) for a, b in zip(plain, steered, strict=True))
                     results.setdefault("fusion0_equals_music", []).append(bool(same))
                 for pos in steered:
