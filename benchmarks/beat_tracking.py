@@ -17,7 +17,8 @@ Every tracker runs as the ``beats`` extractor calls it (``track_beats``, its def
 beats skipped at the start); **F any level** the best F against the reference, its double
 (midpoints added) and either half (every other beat): right beats at another metrical level;
 **tempo** 60 / the median beat interval; **octave %** songs whose tempo is within 8 % of the
-reference's double, half, or a third/two thirds (a metrical-level error rather than a wrong beat).
+reference's double, half, or a third/two thirds (a metrical-level error rather than a wrong beat);
+**downbeat F** the F-measure of the bar starts (against the true ones, or madmom's).
 Songs above 160 BPM can only be tracked at half tempo by design (the dance prior of the range).
 ``--readme`` writes the tables into benchmarks/README.md between the ``beats`` markers.
 """
@@ -80,11 +81,13 @@ def octave_error(found: float, reference: float) -> bool:
     return any(abs(found / (reference * k) - 1) <= 0.08 for k in (2.0, 0.5, 3.0, 1 / 3, 2 / 3, 1.5))
 
 
-def score(times: np.ndarray, reference: np.ndarray) -> dict[str, float]:
-    """F, F at any metrical level, tempo and whether it is an octave error, of one song."""
+def score(times: np.ndarray, reference: np.ndarray, downbeats: np.ndarray, ref_downbeats: np.ndarray
+          ) -> dict[str, float]:
+    """F, F at any metrical level, tempo and whether it is an octave error, and downbeat F, of one song."""
     found, ref_tempo = tempo(times), tempo(reference)
     return {
         "f": f_measure(times, reference),
+        "downbeat_f": f_measure(downbeats, ref_downbeats),
         "f_any": max(f_measure(times, v) for v in metrical_variants(reference)),
         "tempo": found,
         "ref_tempo": ref_tempo,
@@ -93,7 +96,7 @@ def score(times: np.ndarray, reference: np.ndarray) -> dict[str, float]:
 
 
 def synth_songs(n: int, seed: int, seconds: float):
-    """``(name, Audio, true beats, style)`` of ``n`` synthesized songs with tempo drift."""
+    """``(name, Audio, true beats, true downbeats, label)`` of ``n`` synthesized songs with tempo drift."""
     from dance_core import Audio
     from dance_core.data.synth_music import synthesize
 
@@ -102,26 +105,28 @@ def synth_songs(n: int, seed: int, seconds: float):
         bpm, drift = float(rng.uniform(70, 180)), float(rng.uniform(0.02, 0.08))
         song = synthesize(seconds, bpm, 22050, rng, drift=drift)
         label = f"{song.style} {song.beats_per_bar}/4, swing {song.swing:.2f}, drift {100 * drift:.0f} %"
-        yield f"synth-{seed + k}", Audio(song.audio, song.rate), song.beats, label
+        yield f"synth-{seed + k}", Audio(song.audio, song.rate), song.beats, song.downbeats, label
 
 
-def run_tracker(audio, tracker: str) -> tuple[np.ndarray, float]:
-    """Beat times by ``tracker`` and the seconds it took."""
+def run_tracker(audio, tracker: str) -> tuple[np.ndarray, np.ndarray, float]:
+    """Beat and downbeat times by ``tracker`` and the seconds it took."""
     from dance_audio.beats import track_beats
 
     start = time.perf_counter()
-    times = np.asarray(track_beats(audio, tracker).times, dtype=np.float64)
-    return times, time.perf_counter() - start
+    beats = track_beats(audio, tracker)
+    took = time.perf_counter() - start
+    return np.asarray(beats.times, dtype=np.float64), np.asarray(beats.downbeats, dtype=np.float64), took
 
 
 def summary_row(label: str, tracker: str, rows: list[dict[str, float]], seconds: float) -> str:
     """One markdown row: means of F and F any level, octave errors, tracking time per minute of audio."""
     f = np.array([r["f"] for r in rows])
     f_any = np.array([r["f_any"] for r in rows])
+    downbeat = np.mean([r["downbeat_f"] for r in rows])
     octave = 100 * np.mean([r["octave"] for r in rows])
     per_minute = sum(r["time"] for r in rows) / (seconds / 60)
     return (f"| {label} | `{tracker}` | {len(rows)} | **{f.mean():.3f}** | {np.median(f):.3f} | {f_any.mean():.3f} | "
-            f"{np.mean(f >= 0.9) * 100:.0f} | {octave:.0f} | {per_minute:.2f} |")
+            f"{np.mean(f >= 0.9) * 100:.0f} | {octave:.0f} | {downbeat:.3f} | {per_minute:.2f} |")
 
 
 def machine() -> str:
@@ -149,12 +154,12 @@ def main(argv: list[str] | None = None) -> None:
     results: dict[tuple[str, str], list[dict[str, float]]] = {}
     seconds = {"synth": 0.0, "fixtures": 0.0}
     per_song: list[str] = []
-    for name, audio, beats, label in synth_songs(args.songs, args.seed, args.seconds):
+    for name, audio, beats, downbeats, label in synth_songs(args.songs, args.seed, args.seconds):
         seconds["synth"] += audio.duration
         cells = []
         for tracker in args.trackers:
-            times, took = run_tracker(audio, tracker)
-            row = score(times, beats) | {"time": took}
+            times, bars, took = run_tracker(audio, tracker)
+            row = score(times, beats, bars, downbeats) | {"time": took}
             results.setdefault(("synth", tracker), []).append(row)
             cells.append(f"{tracker} F {row['f']:.2f} ({row['tempo']:.0f} BPM)")
         print(f"{name} [{label}] {tempo(beats):.0f} BPM: " + ", ".join(cells), file=sys.stderr, flush=True)
@@ -165,11 +170,11 @@ def main(argv: list[str] | None = None) -> None:
     for song in songs:
         audio = load_audio(song, get_registry())
         seconds["fixtures"] += audio.duration
-        reference, _ = run_tracker(audio, "madmom")
+        reference, ref_bars, _ = run_tracker(audio, "madmom")
         cells = []
         for tracker in args.trackers:
-            times, took = run_tracker(audio, tracker)
-            row = score(times, reference) | {"time": took}
+            times, bars, took = run_tracker(audio, tracker)
+            row = score(times, reference, bars, ref_bars) | {"time": took}
             results.setdefault(("fixtures", tracker), []).append(row)
             cells.append(f"F {row['f']:.2f}, F any {row['f_any']:.2f}, {row['tempo']:.0f} BPM")
         per_song.append(f"| {song.stem} | {audio.duration:.0f} | {tempo(reference):.0f} | " + " | ".join(cells) + " |")
@@ -181,8 +186,8 @@ def main(argv: list[str] | None = None) -> None:
         f"Command: `OMP_NUM_THREADS=1 .venv/bin/python {command.strip()}`; {args.date}; {machine()}.",
         "",
         "| songs | tracker | n | mean F (±70 ms) | median F | mean F any level | songs F ≥ 0.9 (%) "
-        "| metrical-level errors (%) | seconds per minute of audio |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| metrical-level errors (%) | mean downbeat F | seconds per minute of audio |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     labels = {"synth": f"synthesized, {args.seconds:g} s, 70-180 BPM, drift 2-8 % (true beats)",
               "fixtures": "fixture songs (madmom's beats)"}
