@@ -33,6 +33,7 @@ from pathlib import Path
 import claims_curriculum
 import claims_protocol
 import claims_transflower
+import numpy as np
 from claims_protocol import Protocol, TestSet, cached, generate, pm, reference_clips, score
 from claims_runs import ground_truth, run_family
 from readme_section import write_section
@@ -55,7 +56,8 @@ def row(label: str, runs: list[dict], temperature: float = 1.0, note: str = "") 
     """One table row: every column as mean ± sd over the runs (seeds)."""
     cells = [pm([r["temperatures"].get(f"{temperature:g}", {}).get(k) for r in runs]) for k, _ in COLUMNS]
     nll = pm([r.get("nll") for r in runs])
-    train = pm([r.get("train_s") for r in runs], 2)
+    times = [r["train_s"] for r in runs if r.get("train_s") is not None]
+    train = f"{np.mean(times):.0f} ± {np.std(times):.0f}" if times else "n/a"
     return f"| {label} | " + " | ".join(cells) + f" | {nll} | {train} | {len(runs)} | {note} |"
 
 
@@ -123,7 +125,7 @@ def claims_table(table: dict, tf: dict | None, cur: dict | None, protocol: Proto
     if cur and cur.get("teacher forcing"):
         lines.append(row("DanceRevolution, pure teacher forcing", cur["teacher forcing"]))
     if table.get("tm2d"):
-        lines.append(row("TM2D (tm2d-small, bundled weights, music only)", table["tm2d"],
+        lines.append(row("TM2D (tm2d-small, bundled weights of 7ed0187, music only)", table["tm2d"],
                          note="not the common protocol: its own training set (classic dancer + synthetic-moves), "
                               "30 fps resampled to 20, its features; one training run, 5 samples"))
     return lines
@@ -157,8 +159,9 @@ def main() -> None:
     files = sorted((protocol.cache / "results").glob("*.json"), key=lambda p: p.stat().st_mtime)
     span = (files[-1].stat().st_mtime - files[0].stat().st_mtime) / 60 if files else 0.0
     lines = [
-        f"Command: `OMP_NUM_THREADS=1 nice -n 5 .venv/bin/python benchmarks/claims.py{' --quick' if args.quick else ''}"
-        f" --readme`; {len(files)} cached results written over {span:.0f} min of wall time, this invocation "
+        f"Command: `OMP_NUM_THREADS=1 nice -n 5 .venv/bin/python benchmarks/claims.py{' --quick' * args.quick}"
+        f"{' --cached-only' * args.cached_only} --readme`; {len(files)} cached results written over {span:.0f} "
+        f"min of wall time, this invocation "
         f"{total / 60:.1f} min, on {platform.machine()}, "
         f"{os.cpu_count()} cores shared with other engineers' jobs, load average {load:.1f} at the end, 1 torch "
         f"thread, torch {torch.__version__}. Protocol: {protocol.seeds} seeds × {protocol.samples} samples per "
@@ -178,8 +181,9 @@ def main() -> None:
         lines.append(claims_transflower.verdict(tf, protocol))
     if cur:
         lines.append(claims_curriculum.verdict(cur, protocol))
-    lines.append("- **TM2D**: see the text-span experiment (benchmarks/text_spans.py) and its verdict in the "
-                 "TM2D section of this file; the row above is its music-only dancing.")
+    lines.append("- **TM2D**: its claim is tested by benchmarks/text_spans.py (the fusion-weight sweep); the verdict "
+                 "is in the section \"TM2D: text spans on real songs\" of this file. The table's row is its "
+                 "music-only dancing, for comparison only.")
     text = "\n".join(lines)
     print(text)
     if args.readme and not args.quick:  # the smoke path never overwrites the full run's figures
