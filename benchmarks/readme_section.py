@@ -17,3 +17,13 @@ def write_section(name: str, text: str, readme: Path = README) -> None:
         raise SystemExit(f"{readme}: no {start} ... {end} markers")
     head, rest = current.split(start, 1)
     write_text(readme, head + start + "\n" + text.rstrip("\n") + "\n" + end + rest.split(end, 1)[1])
+
+
+def verdict_line(opening: str, readme: Path = README) -> str | None:
+    """The README's bullet that starts with ``opening`` (with its indented continuation lines), or None."""
+    lines = readme.read_text(encoding="utf-8").splitlines()
+    start = next((i for i, line in enumerate(lines) if line.startswith(opening)), None)
+    if start is None:
+        return None
+    end = next((i for i in range(start + 1, len(lines)) if not lines[i].startswith("  ")), len(lines))
+    return "\n".join(lines[start:end])
