@@ -254,7 +254,7 @@ def test_catch_all_turns_remaining_errors_into_one_line(exc, expected, monkeypat
 
 def test_help_shows_defaults_choices_and_examples(capsys):
     for argv, wanted in (
-        (["synth", "--help"], ["(default: 22050)", "{librosa,madmom,auto}", "examples:", "dance synth song.wav"]),
+        (["synth", "--help"], ["(default: 22050)", "{flux,librosa,madmom,auto}", "examples:", "dance synth song.wav"]),
         (["compose", "--help"], ["(default: compose.samples)", "examples:", "--json"]),
         (["render", "--help"], ["(default: 480 480)", "examples:"]),
         (["train", "--help"], ["examples:", "--stop-at"]),

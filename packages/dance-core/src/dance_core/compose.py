@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from dance_core.atomic import OutputSet
+from dance_core.atomic import OutputSet, sweep_stale_temps
 from dance_core.checkpoint import Checkpoint, check_matches, load_checkpoint, load_weights
 from dance_core.data.features import FeatureStack, load_audio
 from dance_core.data.files import read_motion_file
@@ -204,7 +204,9 @@ def compose_songs(
     result = Composed(songs=list(mine), shard=shard)
     todo = []
     for path in mine:
-        if not overwrite and complete(output_targets(out, stems[path], formats, bool(c.texts))):
+        targets = output_targets(out, stems[path], formats, bool(c.texts))
+        if not overwrite and complete(targets):
+            sweep_stale_temps(out, [t.name for t in targets])  # what a killed run left beside a whole set
             result.skipped.append(path)
         else:
             todo.append(path)
