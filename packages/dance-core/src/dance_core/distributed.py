@@ -266,17 +266,9 @@ def _rank_entry(rank: int, world: int, port: int, threads: int, fn: Callable, ar
     try:
         queue.put((rank, "ok", fn(*args)))
     except BaseException as exc:  # handed to the parent, which raises or returns it
-        queue.put((rank, "error", exc if _picklable(exc) else DanceError(_one_line(exc))))
-
-
-def _picklable(value: Any) -> bool:
-    import pickle
-
-    try:
-        pickle.loads(pickle.dumps(value))
-    except Exception:
-        return False
-    return True
+        # as a plain DanceError: any exception class reaches the parent intact, whatever its constructor
+        text = _one_line(exc) if isinstance(exc, DanceError) else f"{type(exc).__name__}: {_one_line(exc)}"
+        queue.put((rank, "error", DanceError(text)))
 
 
 def run_local(fn: Callable, world: int, *args: Any, timeout: float = 300.0, threads: int = 1) -> list[Any]:
