@@ -202,7 +202,7 @@ def _synth_parser(sub) -> None:
                    "default classic, the dances of before), a different one per dance of a song")
     p.add_argument("--homogeneous", action="store_true",
                    help="with --out: the control set: every dance by the first dancer, one style, one fixed routine")
-    p.add_argument("--tracker", choices=["flux", "librosa", "madmom", "auto"], default="librosa",
+    p.add_argument("--tracker", choices=["flux", "librosa", "madmom", "auto"], default="flux",
                    help="with --music: beat tracker (madmom's model files are non-commercial)")
     p.add_argument("--fps", type=bounded_number(float, 0.0, 1000.0, above=True), default=60.0,
                    help="dataset motion frame rate, up to 1000")

@@ -25,7 +25,7 @@ TRACK_FPS = 100.0
 BANDS = (150.0, 400.0, 1000.0, 2500.0, 6000.0)
 
 
-def tracked_beats(audio: Audio, registry: Registry, tracker: str = "librosa") -> tuple[np.ndarray, np.ndarray]:
+def tracked_beats(audio: Audio, registry: Registry, tracker: str = "flux") -> tuple[np.ndarray, np.ndarray]:
     """Beat and downbeat frame indices at ``TRACK_FPS`` from the registered ``beats`` extractor
     (dance-audio's; core tracks no beats itself). A ``PluginError`` when none is installed."""
     try:
@@ -38,7 +38,7 @@ def tracked_beats(audio: Audio, registry: Registry, tracker: str = "librosa") ->
     return np.flatnonzero(cols[:, 0] > 0.5), np.flatnonzero(cols[:, 1] > 0.5)
 
 
-def track_grid(audio: Audio, registry: Registry, tracker: str = "librosa") -> BeatGrid:
+def track_grid(audio: Audio, registry: Registry, tracker: str = "flux") -> BeatGrid:
     """Beats and downbeats of a song as a ``BeatGrid`` (see ``tracked_beats``)."""
     beats, downbeats = tracked_beats(audio, registry, tracker)
     down = set(downbeats.tolist())
