@@ -4,6 +4,7 @@ so each song's dance equals its per-song dance within float rounding; per-song m
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,8 +14,6 @@ import torch
 from dance_core import RowGenerators, Window, draw_rows, hookimpl
 from dance_core.components.configs import RegressionHeadConfig
 from dance_core.components.modules import RegressionHead
-from dance_core.components.synthetic import click_track
-from dance_core.components.wav import write_wav
 from dance_core.compose import batching_note, compose_songs, generate_song, generate_songs, load_model, load_song
 from dance_core.recipe import load_recipe
 from dance_core.registry import get_registry
@@ -22,6 +21,9 @@ from dance_core.row_generators import supports_row_generators
 from dance_core.shards import Shard
 from dance_core.testing import registered_plugin
 from dance_core.train import train
+
+sys.path.insert(0, str(Path(__file__).parent))
+from compose_helpers import click_song  # noqa: E402
 
 TINY = ["data.dataset.songs=4", "data.dataset.seconds=6", "training.steps=10", "training.batch_size=16",
         "training.val_every=10", "training.checkpoint_every=10", "training.log_every=10",
@@ -127,19 +129,13 @@ def test_row_generator_declarations_are_not_inherited():
 
 # --- composition -----------------------------------------------------------------------------------
 
-def _song(path: Path, seconds: float, bpm: float, rate: int = 16000) -> str:
-    beats = np.arange(0.0, seconds, 60.0 / bpm)
-    write_wav(path, click_track(beats, seconds, rate, np.random.default_rng(int(bpm))), rate)
-    return str(path)
-
-
 @pytest.fixture(scope="module")
 def model(tmp_path_factory):
     """A tiny trained core-synthetic model with a per-row sampling head, and three songs of different lengths."""
     root = tmp_path_factory.mktemp("batch")
     songs = root / "songs"
     songs.mkdir()
-    paths = [_song(songs / f"s{k}.wav", seconds, bpm)
+    paths = [click_song(songs / f"s{k}.wav", seconds, bpm)
              for k, (seconds, bpm) in enumerate([(1.5, 100), (2.4, 120), (0.9, 90)])]
     with registered_plugin(HeadsPlugin(), "batch-heads"):
         ckpt = train(load_recipe("core-synthetic", TINY), out=str(root / "run"), quiet=True).checkpoint

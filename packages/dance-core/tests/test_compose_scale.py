@@ -6,18 +6,13 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-import torch
 
-from dance_core import hookimpl
 from dance_core.cli.main import main
-from dance_core.components.configs import RegressionHeadConfig
-from dance_core.components.modules import RegressionHead
-from dance_core.components.synthetic import click_track
-from dance_core.components.wav import write_wav
 from dance_core.compose import audio_files, complete, compose_songs, expand_music
 from dance_core.errors import DataError
 from dance_core.registry import get_registry
@@ -25,31 +20,12 @@ from dance_core.shards import Shard
 from dance_core.testing import registered_plugin
 from dance_core.train import train
 
+sys.path.insert(0, str(Path(__file__).parent))
+from compose_helpers import NoisyPlugin, click_song  # noqa: E402
+
 TINY = ["data.dataset.songs=4", "data.dataset.seconds=6", "training.steps=10", "training.batch_size=16",
         "training.val_every=10", "training.checkpoint_every=10", "training.log_every=10",
         "model.head.plugin=noisy-head"]
-
-
-class NoisyHead(RegressionHead):
-    """A sampling head: the regression plus noise drawn from compose's generator."""
-
-    def step(self, latent, history, state, temperature, generator=None):
-        pred, state = super().step(latent, history, state, temperature, generator)
-        noise = torch.randn(pred.shape, generator=generator, device=pred.device, dtype=pred.dtype)
-        return pred + 0.3 * temperature * noise, state
-
-
-class NoisyPlugin:
-    @hookimpl
-    def register_heads(self, register):
-        register("noisy-head", RegressionHeadConfig,
-                 lambda c, *, motion_dim, latent_dim, **_: NoisyHead(c, motion_dim, latent_dim, None))
-
-
-def song(path: Path, seconds: float, bpm: float = 120.0, rate: int = 16000) -> str:
-    beats = np.arange(0.0, seconds, 60.0 / bpm)
-    write_wav(path, click_track(beats, seconds, rate, np.random.default_rng(int(bpm))), rate)
-    return str(path)
 
 
 @pytest.fixture(scope="module")
@@ -61,7 +37,7 @@ def noisy(tmp_path_factory):
     songs = root / "songs"
     songs.mkdir()
     for k, (seconds, bpm) in enumerate([(1.5, 100), (2.0, 120), (1.2, 90), (2.5, 130), (1.8, 110)]):
-        song(songs / f"s{k}.wav", seconds, bpm)
+        click_song(songs / f"s{k}.wav", seconds, bpm)
     (songs / "notes.txt").write_text("not a song")
     (songs / ".s9.wav.dance-1-abcdefgh.wav").write_bytes(b"a temporary file")
     with registered_plugin(NoisyPlugin(), "noisy-plugin"):
@@ -107,7 +83,7 @@ def test_a_folder_stands_for_its_audio_files(noisy, tmp_path):
     registry = get_registry()
     found = audio_files(noisy["songs"], registry)
     assert [Path(p).name for p in found] == [f"s{k}.wav" for k in range(5)]  # sorted; no .txt, no temp file
-    single = song(tmp_path / "z.wav", 1.0)
+    single = click_song(tmp_path / "z.wav", 1.0)
     assert expand_music([single, str(noisy["songs"])], registry) == [single, *found]
     (tmp_path / "empty").mkdir()
     with pytest.raises(DataError, match=r"empty: no audio files in this folder \(suffixes read: .*\.wav"):
@@ -184,7 +160,7 @@ def test_summary_line_names_written_skipped_and_the_shard(noisy, tmp_path, capsy
 def test_an_empty_file_in_a_folder_stops_the_command_before_any_work(noisy, tmp_path, capsys):
     songs = tmp_path / "songs"
     songs.mkdir()
-    song(songs / "a.wav", 1.0)
+    click_song(songs / "a.wav", 1.0)
     (songs / "b.wav").write_bytes(b"")
     assert run_compose(noisy, tmp_path / "out", "--music", str(songs)) == 1
     assert capsys.readouterr().err.strip() == f"dance: error: --music {songs / 'b.wav'}: audio file is empty"
@@ -193,7 +169,7 @@ def test_an_empty_file_in_a_folder_stops_the_command_before_any_work(noisy, tmp_
 
 def test_songs_with_one_name_are_refused_across_shards(noisy, tmp_path):
     (tmp_path / "x").mkdir()
-    twin = song(tmp_path / "x" / "s2.wav", 1.0)
+    twin = click_song(tmp_path / "x" / "s2.wav", 1.0)
     with registered_plugin(NoisyPlugin(), "noisy-plugin"):
         from dance_core.recipe import load_recipe
 

@@ -28,8 +28,6 @@ import torch
 from dance_core import hookimpl
 from dance_core.atomic import OutputSet, atomic_path, output_mode, sweep_stale_temps
 from dance_core.checkpoint import load_checkpoint
-from dance_core.components.configs import RegressionHeadConfig
-from dance_core.components.modules import RegressionHead
 from dance_core.components.npz import NpzFormat
 from dance_core.components.synthetic import click_track
 from dance_core.components.wav import write_wav
@@ -38,6 +36,9 @@ from dance_core.errors import CheckpointError, DanceError, DataError
 from dance_core.protocols import MotionData
 from dance_core.testing import registered_plugin
 from dance_core.train import LOCK_FILE, run_lock, train
+
+sys.path.insert(0, str(Path(__file__).parent))
+from compose_helpers import NoisyPlugin  # noqa: E402
 
 TINY = [
     "data.dataset.songs=4",
@@ -391,22 +392,6 @@ def test_sigterm_during_a_write_leaves_no_temp_file(tmp_path, how):
 # ------------------------------------------------------------------------------------------------ determinism
 
 
-class NoisyHead(RegressionHead):
-    """A sampling head: the regression plus noise drawn from compose's generator."""
-
-    def step(self, latent, history, state, temperature, generator=None):
-        pred, state = super().step(latent, history, state, temperature, generator)
-        noise = torch.randn(pred.shape, generator=generator, device=pred.device, dtype=pred.dtype)
-        return pred + 0.3 * temperature * noise, state
-
-
-class NoisyPlugin:
-    @hookimpl
-    def register_heads(self, register):
-        register("noisy-head", RegressionHeadConfig,
-                 lambda c, *, motion_dim, latent_dim, **_: NoisyHead(c, motion_dim, latent_dim, None))
-
-
 def test_a_song_composes_the_same_dance_whatever_else_is_in_the_call(tiny_recipe, tmp_path):
     a, b = song(tmp_path / "a.wav", 3.0), song(tmp_path / "b.wav", 4.5, rate=22050)
     with registered_plugin(NoisyPlugin(), "noisy-plugin"):
@@ -444,7 +429,6 @@ def test_same_run_same_checkpoint_bytes_and_mode_0644(tiny_recipe, tmp_path):
 
 
 def test_deterministic_safetensors_round_trip_every_dtype(tmp_path):
-    import torch
     from safetensors.torch import load_file
 
     from dance_core.checkpoint import write_safetensors
