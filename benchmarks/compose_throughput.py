@@ -33,6 +33,20 @@ FIXTURE = "/work/shared/fixtures/audio/vibe_ace.ogg"
 FIXTURES = "/work/shared/fixtures/audio"
 
 
+def timings(frames: int, wall: float, t_features: float, t_generate: float, end: float, cpu: float) -> dict:
+    """One timed composition's figures from its clock readings (start, features done, generation done, end)."""
+    return {
+        "frames": frames,
+        "wall_s": end - wall,
+        "features_s": t_features - wall,
+        "generate_s": t_generate - t_features,
+        "write_s": end - t_generate,
+        "cpu_s": cpu,
+        "frames_per_s": frames / (end - wall),
+        "generate_frames_per_s": frames / (t_generate - t_features),
+    }
+
+
 def compose_once(recipe, model, ckpt, stack, song_path: str, out: Path, device) -> dict:
     """One song composed with the recipe's ``compose.samples`` streams, timed phase by phase."""
     c, registry = recipe.compose, get_registry()
@@ -47,16 +61,7 @@ def compose_once(recipe, model, ckpt, stack, song_path: str, out: Path, device) 
     write_song(song, motion, stems, out, formats, ckpt, recipe, registry)
     end, cpu = time.perf_counter(), time.process_time() - cpu
     frames = c.samples * song.n_frames
-    return {
-        "frames": frames,
-        "wall_s": end - wall,
-        "features_s": t_features - wall,
-        "generate_s": t_generate - t_features,
-        "write_s": end - t_generate,
-        "cpu_s": cpu,
-        "frames_per_s": frames / (end - wall),
-        "generate_frames_per_s": frames / (t_generate - t_features),
-    }
+    return timings(frames, wall, t_features, t_generate, end, cpu)
 
 
 def compose_songs_once(recipe, model, ckpt, stack, songs: list[tuple[str, float]], out: Path, device,
@@ -78,16 +83,7 @@ def compose_songs_once(recipe, model, ckpt, stack, songs: list[tuple[str, float]
                    registry)
     end, cpu = time.perf_counter(), time.process_time() - cpu
     frames = c.samples * sum(song.n_frames for song in loaded)
-    return {
-        "frames": frames,
-        "wall_s": end - wall,
-        "features_s": t_features - wall,
-        "generate_s": t_generate - t_features,
-        "write_s": end - t_generate,
-        "cpu_s": cpu,
-        "frames_per_s": frames / (end - wall),
-        "generate_frames_per_s": frames / (t_generate - t_features),
-    }
+    return timings(frames, wall, t_features, t_generate, end, cpu)
 
 
 def measure(run, repeats: int) -> tuple[list[dict], str]:
