@@ -37,6 +37,30 @@ def test_audio_encoder_works_at_the_token_rate(registry, tiny_encoder):
         assert torch.equal(first.eval()(None, {"music": nudged}), first(None, {"music": music}))  # every 8th frame
 
 
+def test_stack_pool_keeps_the_frame_a_beat_falls_on(registry, tiny_encoder):
+    from dance_core import EncoderContext
+    from dance_tokens.rate import to_tokens
+
+    music = torch.randn(2, 8 * 5 + 3, 3)
+    stacked = to_tokens(music, 8, "stack")
+    assert stacked.shape == (2, 6, 24)
+    assert torch.equal(stacked[:, 1].reshape(2, 8, 3), music[:, 8:16])  # the token's frames in time order
+    assert torch.equal(stacked[:, 5].reshape(2, 8, 3)[:, 3:], music[:, 42:43].expand(2, 5, 3))  # last frame repeated
+    # a beat on frame 1 or frame 6 of a token has the same mean but not the same stack
+    early, late = torch.zeros(1, 8, 1), torch.zeros(1, 8, 1)
+    early[0, 1], late[0, 6] = 1.0, 1.0
+    assert torch.equal(to_tokens(early, 8), to_tokens(late, 8))
+    assert not torch.equal(to_tokens(early, 8, "stack"), to_tokens(late, 8, "stack"))
+    encoder = registry.create("encoder", "tm2d-audio", {**tiny_encoder, "pool": "stack"}, EncoderContext(6, {"music": 3}))
+    assert encoder.embed.in_features == 24
+    with torch.no_grad():
+        beats = torch.zeros(1, 16, 3)
+        beats[0, 1] = 1.0
+        moved = torch.zeros(1, 16, 3)
+        moved[0, 6] = 1.0
+        assert not torch.allclose(encoder.eval()(None, {"music": beats}), encoder(None, {"music": moved}))
+
+
 def test_defaults_are_the_papers(registry):
     head = registry.create("head", "tm2d", {}, _context())
     c = head.config

@@ -103,8 +103,9 @@ class AudioEncoderConfig(ComponentConfig):
     ffn: PositiveInt = Field(2048, description="feed-forward width (ours)")
     dropout: float = Field(0.1, ge=0.0, lt=1.0)
     downsample: PositiveInt = Field(8, description="frames per token; must equal the head's tokenizer.downsample")
-    pool: Literal["mean", "first"] = Field(
-        "mean", description="music at the token rate: the mean of each token's frames, or its first frame"
+    pool: Literal["mean", "first", "stack"] = Field(
+        "mean", description="music at the token rate: the mean of each token's frames, its first frame, or "
+        "(ours) all its frames side by side, so a beat's frame within the token is kept"
     )
     radius: int | None = Field(
         16, ge=0, description="a token attends to tokens at most this far away (ours; null: all)"

@@ -1,7 +1,8 @@
 """TM2D's audio encoder as a song-level encoder (``tm2d-audio``).
 
 The music streams are brought to the token rate (the mean of each token's ``t`` frames by default, so
-a one-frame onset or beat peak is not skipped; ``pool: first`` samples every t-th frame), embedded by a
+a one-frame onset or beat peak is not skipped; ``pool: first`` samples every t-th frame; ``pool: stack``
+lays the token's ``t`` frames side by side, so the frame a beat falls on is kept), embedded by a
 linear layer and run through transformer encoder layers (section 3.3: "an embedded layer followed by
 several transformer blocks"). Each token's vector is repeated over its ``t`` frames, so core's per-frame
 slicing works; the ``tm2d`` head takes the token-rate vectors back as its audio memory.
@@ -51,4 +52,5 @@ def build(config, *, cond_dims: Mapping[str, int], **_: Any) -> AudioEncoder:
     if not streams:
         raise ValueError(f"no music stream to encode (streams: {', '.join(cond_dims) or 'none'}; "
                          f"ignored: {', '.join(config.ignore)})")
-    return AudioEncoder(config, streams, sum(cond_dims[name] for name in streams))
+    width = sum(cond_dims[name] for name in streams)
+    return AudioEncoder(config, streams, width * (config.downsample if config.pool == "stack" else 1))

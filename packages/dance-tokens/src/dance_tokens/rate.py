@@ -13,9 +13,15 @@ def token_count(frames: int, t: int) -> int:
 
 def to_tokens(x: torch.Tensor, t: int, how: str = "mean") -> torch.Tensor:
     """``(B, T, C) -> (B, ceil(T / t), C)``: the mean of each token's frames (of those present, for a
-    last partial token), or its first frame (``how="first"``)."""
+    last partial token), or its first frame (``how="first"``); ``how="stack"`` gives ``(B, N, t·C)``,
+    the token's frames side by side in time order (a last partial token repeats its last frame)."""
     if how == "first":
         return x[:, ::t]
+    if how == "stack":
+        n = token_count(x.shape[1], t)
+        padded = F.pad(x.transpose(1, 2), (0, n * t - x.shape[1]), mode="replicate") if n * t > x.shape[1] else (
+            x.transpose(1, 2))
+        return padded.transpose(1, 2).reshape(x.shape[0], n, t * x.shape[2])
     return F.avg_pool1d(x.transpose(1, 2), t, t, ceil_mode=True).transpose(1, 2)
 
 
