@@ -101,7 +101,7 @@ def test_resume_without_a_run_is_a_clear_error(tiny_recipe, tmp_path):
 def test_same_seed_same_weights_different_seed_differs(tiny_recipe, tmp_path):
     a = weights(train(tiny_recipe(), out=str(tmp_path / "a"), quiet=True).checkpoint)
     b = weights(train(tiny_recipe(), out=str(tmp_path / "b"), quiet=True).checkpoint)
-    c = weights(train(tiny_recipe("seed=1"), out=str(tmp_path / "c"), quiet=True).checkpoint)
+    c = weights(train(tiny_recipe("data.dataset.songs=6"), out=str(tmp_path / "c"), quiet=True).checkpoint)
     assert all(torch.equal(a[k], b[k]) for k in a)
     assert not all(torch.equal(a[k], c[k]) for k in a)
 
@@ -158,3 +158,37 @@ def test_a_stage_may_set_its_own_batch_size(tiny_recipe, tmp_path):
     trainer.run()
     assert sizes == [24, 24, 24, 5, 5]
     assert real(0, "cpu", 7)[0].shape[0] == 7 and real(0, "cpu")[0].shape[0] == recipe.training.batch_size
+
+
+def test_init_takes_a_checkpoints_weights_and_statistics(tiny_recipe, tmp_path):
+    first = train(tiny_recipe(), out=str(tmp_path / "a"), quiet=True).checkpoint
+    old = load_checkpoint(first)
+    # a new encoder of another width over the old head is not possible; a new head over the old encoder is
+    recipe = tiny_recipe(f"training.init={{checkpoint: {first}, weights: [encoder.]}}", "data.dataset.songs=6",
+                         "training.stages=[{name: head, steps: 4, trainable: [head.]}]")
+    trainer = Trainer(recipe, tmp_path / "b", quiet=True)
+    own = trainer.model.state_dict()
+    assert all(torch.equal(own[k], old.weights[k]) for k in own if k.startswith("encoder."))
+    assert not all(torch.equal(own[k], old.weights[k]) for k in own if k.startswith("head."))
+    fitted = Trainer(tiny_recipe("data.dataset.songs=6"), tmp_path / "c", quiet=True).stats.to_arrays()
+    ours, theirs = trainer.stats.to_arrays(), old.stats.to_arrays()
+    assert all(np.array_equal(ours[k], theirs[k]) for k in ours)  # the checkpoint's, not the new split's
+    assert not all(np.array_equal(fitted[k], theirs[k]) for k in fitted)
+    trainer.run()
+    after = load_checkpoint(tmp_path / "b" / "model.safetensors")
+    assert all(torch.equal(after.weights[k], old.weights[k]) for k in after.weights if k.startswith("encoder."))
+    refit = Trainer(tiny_recipe(f"training.init={{checkpoint: {first}, stats: false}}", "data.dataset.songs=6"),
+                    tmp_path / "d", quiet=True)
+    assert all(np.array_equal(refit.stats.to_arrays()[k], fitted[k]) for k in fitted)
+    assert all(torch.equal(v, old.weights[k]) for k, v in refit.model.state_dict().items())  # '' takes all
+
+
+def test_init_errors_name_the_checkpoint_and_the_field(tiny_recipe, tmp_path):
+    first = train(tiny_recipe(), out=str(tmp_path / "a"), quiet=True).checkpoint
+    with pytest.raises(CheckpointError, match="not found|no such|does not exist"):
+        Trainer(tiny_recipe(f"training.init={{checkpoint: {tmp_path / 'none.safetensors'}}}"), tmp_path / "b", quiet=True)
+    with pytest.raises(CheckpointError, match=r"training.init.weights: no parameter of the model starts with 'heads.'"):
+        Trainer(tiny_recipe(f"training.init={{checkpoint: {first}, weights: [heads.]}}"), tmp_path / "c", quiet=True)
+    with pytest.raises(CheckpointError, match=r"training.init.weights: encoder\..* has shape"):
+        Trainer(tiny_recipe(f"training.init={{checkpoint: {first}, weights: [encoder.]}}", "model.encoder.dim=64"),
+                tmp_path / "d", quiet=True)

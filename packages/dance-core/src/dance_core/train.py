@@ -51,6 +51,7 @@ from dance_core.protocols import TrainContext
 from dance_core.recipe.schema import Recipe, StageSpec
 from dance_core.registry import get_registry
 from dance_core.runtime import pick_device, seed_everything
+from dance_core.warm_start import init_checkpoint, init_stats, init_weights
 
 MODEL_FILE, STATE_FILE, LOG_FILE = "model.safetensors", "state.safetensors", "log.jsonl"
 LOCK_FILE, RECIPE_FILE = "train.lock", "recipe.yaml"
@@ -241,6 +242,7 @@ class Trainer:
         if unknown:
             raise RecipeError(f"{recipe._origin}: training.augment.input_dropout.{unknown[0]}: no input of that name "
                               f"(inputs: motion, {', '.join(self.stack.dims())})")
+        init = init_checkpoint(recipe)  # read before the data, so a wrong path fails at once
         sources = dataset_sources(recipe)
         self._warm_feature_cache(sources)
         clips = []
@@ -252,12 +254,16 @@ class Trainer:
                     bar.update(task, advance=1, info=source.name)
         train, val = split_clips(clips, recipe.data.val_fraction, recipe.seed)
         self.stats = NormStats.fit(train, self.stack.categorical())
+        if init is not None and self.t.init.stats:
+            self.stats = init_stats(init, self.stats)
         train = [self.stats.apply(c) for c in train]
         val = [self.stats.apply(c) for c in val]
         motion_dim = train[0].motion.shape[1]
         self.motion_info = motion_info(recipe, sources, motion_dim)
         torch.manual_seed(recipe.seed)
         self.model = build_model(recipe, motion_dim, self.stack.dims()).to(self.device)
+        if init is not None:
+            init_weights(self.model, init, self.t.init.weights)
         aug = self.t.augment
         if self.model.window.song_level and (aug.motion_noise > 0 or aug.input_dropout.get("motion", 0.0) > 0):
             raise RecipeError(f"{recipe._origin}: training.augment: motion_noise and input_dropout.motion corrupt "

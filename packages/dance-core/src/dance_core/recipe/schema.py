@@ -126,6 +126,22 @@ class AugmentSpec(Strict):
         return v
 
 
+class InitSpec(Strict):
+    """Start a run from a trained checkpoint's weights: fine-tuning, or training a new part (a prior, a
+    head) on top of parts trained before."""
+
+    checkpoint: str = Field(description="safetensors checkpoint (relative to the recipe)")
+    weights: list[str] = Field(
+        default_factory=lambda: [""],
+        description="parameter name prefixes to take from it ('': all); every parameter they name must be in "
+        "the checkpoint with the same shape",
+    )
+    stats: bool = Field(
+        True, description="normalize the data with the checkpoint's statistics (the weights taken expect them) "
+        "instead of fitting them to the data",
+    )
+
+
 class TrainingSpec(Strict):
     """Optimization, schedules, devices, checkpoints and logging."""
 
@@ -149,6 +165,7 @@ class TrainingSpec(Strict):
     log_every: PositiveInt = 25
     stages: list[StageSpec] | None = None
     augment: AugmentSpec = Field(default_factory=AugmentSpec)
+    init: InitSpec | None = Field(None, description="start from a trained checkpoint's weights")
     output: str = Field("runs/{name}", description="run folder; {name} is the recipe name")
 
     def stage_list(self) -> list[StageSpec]:
