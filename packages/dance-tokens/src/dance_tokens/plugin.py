@@ -37,5 +37,5 @@ def register_recipes(register):
     """TM2D at the paper's sizes and a CPU-sized variant."""
     register("tm2d", None, str(RECIPES / "tm2d.yaml"), "TM2D at the paper's sizes (music + text; needs a GPU)")
     register(
-        "tm2d-small", None, str(RECIPES / "tm2d-small.yaml"), "TM2D shrunk for CPU: trains on one CPU thread in 25 min"
+        "tm2d-small", None, str(RECIPES / "tm2d-small.yaml"), "TM2D shrunk for CPU: trains on one CPU thread in 35 min"
     )
