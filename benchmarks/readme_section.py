@@ -19,10 +19,19 @@ def write_section(name: str, text: str, readme: Path = README) -> None:
     write_text(readme, head + start + "\n" + text.rstrip("\n") + "\n" + end + rest.split(end, 1)[1])
 
 
-def verdict_line(opening: str, readme: Path = README) -> str | None:
-    """The README's bullet that starts with ``opening`` (with its indented continuation lines), or None."""
+def verdict_line(opening: str, readme: Path = README, skip: str = "claims") -> str | None:
+    """The README's bullet that starts with ``opening`` (with its indented continuation lines), or None.
+    Lines between the ``skip`` section's markers (where the claims table quotes it) are not searched."""
     lines = readme.read_text(encoding="utf-8").splitlines()
-    start = next((i for i, line in enumerate(lines) if line.startswith(opening)), None)
+    inside, searched = False, []
+    for i, line in enumerate(lines):
+        if line.strip() == f"<!-- {skip}:start -->":
+            inside = True
+        elif line.strip() == f"<!-- {skip}:end -->":
+            inside = False
+        elif not inside:
+            searched.append(i)
+    start = next((i for i in searched if lines[i].startswith(opening)), None)
     if start is None:
         return None
     end = next((i for i in range(start + 1, len(lines)) if not lines[i].startswith("  ")), len(lines))

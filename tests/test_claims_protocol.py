@@ -88,3 +88,13 @@ def test_every_curriculum_reaches_its_q_in_the_last_epoch_and_starts_lower(claim
     assert finals["teacher forcing"] == 0 and finals["const (q=10)"] == 10
     assert finals["linear"] == finals["quadratic"] == curriculum.Q_END
     assert curriculum.Q_END - 2 <= finals["exponential"] <= curriculum.Q_END
+
+
+def test_verdict_line_is_read_from_its_source_not_from_the_claims_quote(claims, tmp_path):
+    from readme_section import verdict_line
+
+    readme = tmp_path / "README.md"
+    readme.write_text("<!-- claims:start -->\n- **TM2D** (text) old verdict\n  old continuation\n<!-- claims:end -->\n\n"
+                      "text\n\n- **TM2D** (text) new verdict\n  new continuation\nafter\n", encoding="utf-8")
+    assert verdict_line("- **TM2D** (text", readme) == "- **TM2D** (text) new verdict\n  new continuation"
+    assert verdict_line("- **Other**", readme) is None
