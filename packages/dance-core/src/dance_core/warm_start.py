@@ -22,7 +22,12 @@ def init_checkpoint(recipe: Recipe) -> Checkpoint | None:
     spec = recipe.training.init
     if spec is None:
         return None
-    return load_checkpoint(recipe.resolve_path(spec.checkpoint))
+    ckpt = load_checkpoint(recipe.resolve_path(spec.checkpoint))
+    for prefix in spec.weights:  # a misspelt prefix is found now; shapes once the model is built
+        if not any(name.startswith(prefix) for name in ckpt.weights):
+            raise CheckpointError(f"{ckpt.path}: training.init.weights: the checkpoint has no parameter starting "
+                                  f"with {prefix!r}")
+    return ckpt
 
 
 def init_stats(ckpt: Checkpoint, fitted: NormStats) -> NormStats:

@@ -19,9 +19,8 @@ def to_tokens(x: torch.Tensor, t: int, how: str = "mean") -> torch.Tensor:
         return x[:, ::t]
     if how == "stack":
         n = token_count(x.shape[1], t)
-        padded = F.pad(x.transpose(1, 2), (0, n * t - x.shape[1]), mode="replicate") if n * t > x.shape[1] else (
-            x.transpose(1, 2))
-        return padded.transpose(1, 2).reshape(x.shape[0], n, t * x.shape[2])
+        padded = F.pad(x.transpose(1, 2), (0, n * t - x.shape[1]), mode="replicate").transpose(1, 2)
+        return padded.reshape(x.shape[0], n, t * x.shape[2])
     return F.avg_pool1d(x.transpose(1, 2), t, t, ceil_mode=True).transpose(1, 2)
 
 
