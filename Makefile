@@ -8,9 +8,9 @@ DANCE := $(VENV)/bin/dance
 STAMP := $(VENV)/.installed
 PYPROJECTS := $(wildcard packages/*/pyproject.toml)
 
-.PHONY: install browser demo test lint clean
+.PHONY: install browser blender demo test lint clean
 
-install: $(STAMP) browser
+install: $(STAMP) browser blender
 
 $(STAMP): requirements-dev.txt $(PYPROJECTS)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -29,12 +29,19 @@ browser:
 		export DEBIAN_FRONTEND=noninteractive; apt-get update -qq && apt-get install -y -qq chromium >/dev/null; \
 	else echo "note: no chromium and not root (or no apt-get): the HTML preview's browser tests will be skipped"; fi
 
+# Blender for the BVH import check (tests/test_bvh_dcc.py, skipped without it): Debian's package, as root
+blender:
+	@if command -v blender >/dev/null 2>&1; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+		export DEBIAN_FRONTEND=noninteractive; apt-get update -qq && apt-get install -y -qq blender >/dev/null; \
+	else echo "note: no blender and not root (or no apt-get): Blender's BVH import test will be skipped"; fi
+
 demo: $(STAMP)
 	$(DANCE) plugins
 	$(DANCE) synth --out out/demo-song --songs 1 --seconds 30 --seed 7
 	$(DANCE) compose default --music out/demo-song/synth-0000.wav --out out
 
-test: $(STAMP) browser
+test: $(STAMP) browser blender
 	$(PY) -m pytest
 
 lint: $(STAMP)

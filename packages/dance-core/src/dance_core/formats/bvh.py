@@ -1,4 +1,9 @@
-"""BVH read/write: any channel order, End Sites, depth-first frame layout, unit scale, continuous Euler."""
+"""BVH read/write: any channel order, End Sites, depth-first frame layout, unit scale, continuous Euler.
+
+The root's position channels hold its absolute position (what Blender, bvhio and other tools read);
+its OFFSET is the skeleton's rest offset. Files dance wrote before held the root's position relative
+to that OFFSET: the reader's ``root="auto"`` tells them apart (see :func:`reads_relative`).
+"""
 
 from __future__ import annotations
 
@@ -17,6 +22,12 @@ from dance_core.protocols import MotionData
 
 POSITIONS = ("Xposition", "Yposition", "Zposition")
 ROTATIONS = ("Xrotation", "Yrotation", "Zrotation")
+#: how the root's position channels are read: ``auto`` chooses between the other two per file
+ROOT_MODES = ("auto", "absolute", "relative")
+#: "on the floor": the median lowest point within this fraction of the skeleton's height of 0
+FLOOR_TOLERANCE = 0.05
+#: at most this many evenly spaced frames are posed to decide the ``auto`` reading
+AUTO_FRAMES = 2000
 
 
 def _fps(frame_time: float) -> float:
@@ -210,12 +221,51 @@ def parse_bvh(path: str | Path, scale: float = 1.0) -> tuple[Skeleton, np.ndarra
     return skel, values, names, _fps(frame_time)
 
 
-def frames_to_motion(skel: Skeleton, values: np.ndarray, fps: float, scale: float = 1.0, where: str = "") -> Motion:
-    """Raw BVH frame rows to a :class:`Motion` (position channels scaled by ``scale``)."""
+def _up_axis(skel: Skeleton) -> int:
+    return 2 if skel.up == "z" else 1
+
+
+def _rest_extent(skel: Skeleton, axis: int) -> float:
+    """Extent of the rest pose (End Sites included) along ``axis``."""
+    pos = skel.rest_positions()
+    pts = np.concatenate([pos] + [pos[j][None] + off for j, off in skel.end_sites.items()])
+    return float(np.ptp(pts[:, axis]))
+
+
+def reads_relative(motion: Motion, shift: np.ndarray) -> bool:
+    """The ``auto`` rule: whether a file's root position channels are relative to the root OFFSET
+    (files dance wrote before) rather than absolute (the BVH convention, read by default).
+
+    ``motion`` is the file read absolute and ``shift`` what a relative reading adds to its root (the
+    root OFFSET on the axes that have a position channel). Relative is chosen only when the figure
+    stands on the floor when read relative and not when read absolute: the median over frames of the
+    lowest joint or End Site height (along the skeleton's up axis) is within ``FLOOR_TOLERANCE`` of
+    the rest pose's height of 0 in the one reading and not in the other. A zero OFFSET makes both
+    readings equal; an OFFSET with no up component cannot be told apart this way and reads absolute.
+    """
+    axis = _up_axis(motion.skeleton)
+    if shift[axis] == 0.0 or motion.n_frames == 0 or motion.rotations is None:
+        return False
+    tol = FLOOR_TOLERANCE * _rest_extent(motion.skeleton, axis)
+    step = max(1, -(-motion.n_frames // AUTO_FRAMES))
+    sample = Motion(motion.skeleton, motion.fps, motion.root[::step], motion.rotations[::step])
+    lowest = float(np.median(sample.positions(end_sites=True)[..., axis].min(axis=1)))
+    return abs(lowest + shift[axis]) <= tol < abs(lowest)
+
+
+def frames_to_motion(skel: Skeleton, values: np.ndarray, fps: float, scale: float = 1.0, where: str = "",
+                     root: str = "absolute") -> Motion:
+    """Raw BVH frame rows to a :class:`Motion` (position channels scaled by ``scale``). ``root`` reads
+    the root's position channels as its absolute position (``"absolute"``, the BVH convention), as
+    an offset from its OFFSET (``"relative"``, files dance wrote before), or picks one per file by
+    :func:`reads_relative` (``"auto"``); a root without position channels stays at its OFFSET."""
+    if root not in ROOT_MODES:
+        raise DataError(f"{where}: BVH root reading {root!r} is not one of {', '.join(ROOT_MODES)}")
     t = len(values)
     rotations = np.zeros((t, len(skel), 4))
     rotations[..., 3] = 1.0
-    root = np.repeat(skel.offsets[:1], t, axis=0)
+    trans = np.repeat(skel.offsets[:1], t, axis=0)
+    shift = np.zeros(3)  # what reading the root relative to its OFFSET adds
     col = 0
     offsets = skel.offsets.copy()
     for j, chans in enumerate(skel.channels):
@@ -228,7 +278,8 @@ def frames_to_motion(skel: Skeleton, values: np.ndarray, fps: float, scale: floa
         pos = [(k, POSITIONS.index(c)) for k, c in enumerate(chans) if c in POSITIONS]
         if pos and j == 0:
             for k, axis in pos:
-                root[:, axis] = skel.offsets[0, axis] + block[:, k] * scale
+                trans[:, axis] = block[:, k] * scale
+                shift[axis] = skel.offsets[0, axis]
         elif pos:
             for k, axis in pos:
                 if np.ptp(block[:, k]) > 1e-6:
@@ -237,7 +288,10 @@ def frames_to_motion(skel: Skeleton, values: np.ndarray, fps: float, scale: floa
                 offsets[j, axis] = block[0, k] * scale
     if not np.array_equal(offsets, skel.offsets):
         skel.offsets = offsets
-    return Motion(skel, fps, root, rotations)
+    motion = Motion(skel, fps, trans, rotations)
+    if root == "relative" or (root == "auto" and reads_relative(motion, shift)):
+        motion = Motion(skel, fps, trans + shift, rotations)
+    return motion
 
 
 def dfs_order(skel: Skeleton) -> list[int]:
@@ -251,17 +305,41 @@ def dfs_order(skel: Skeleton) -> list[int]:
     return order
 
 
+def written_end_sites(skel: Skeleton) -> dict[int, np.ndarray]:
+    """The End Sites a BVH file of ``skel`` gets: the skeleton's own, and for every other leaf joint one
+    that continues its bone (parent to leaf, or the nearest non-zero bone above it) by half that
+    bone's length, at least 1% of the skeleton's size, so that no imported bone has zero length. The
+    skeleton itself is left as it is."""
+    ends = dict(skel.end_sites)
+    rest = skel.rest_positions()
+    size = float(np.ptp(rest, axis=0).max()) if len(skel) > 1 else 0.0
+    least = 0.01 * size if size > 0 else 0.01
+    for j in range(len(skel)):
+        if j in ends or skel.children(j):
+            continue
+        k = j
+        while k > 0 and np.linalg.norm(skel.offsets[k]) <= 1e-9:
+            k = skel.parents[k]
+        bone = skel.offsets[k] if k > 0 else np.eye(3)[_up_axis(skel)] * 2 * least
+        length = float(np.linalg.norm(bone))
+        ends[j] = bone / length * max(0.5 * length, least)
+    return ends
+
+
 def _writer_channels(skel: Skeleton, j: int) -> tuple[str, ...]:
     chans = tuple(c for c in skel.channels[j] if c in ROTATIONS) or ("Zrotation", "Xrotation", "Yrotation")
     return (POSITIONS + chans) if j == 0 else chans
 
 
 def motion_to_bvh_text(motion: Motion, scale: float = 1.0, precision: int = 6) -> str:
-    """BVH text of a motion (``scale`` multiplies lengths on the way out)."""
+    """BVH text of a motion (``scale`` multiplies lengths on the way out): the root's OFFSET is its rest
+    offset and its position channels its absolute position; every leaf joint has an End Site
+    (:func:`written_end_sites`)."""
     if motion.rotations is None:
         raise DataError("BVH needs joint rotations; this motion only has joint positions")
     skel = motion.skeleton
     order = dfs_order(skel)
+    ends = written_end_sites(skel)
     out = ["HIERARCHY"]
     depth_of = {0: 0}
 
@@ -278,8 +356,8 @@ def motion_to_bvh_text(motion: Motion, scale: float = 1.0, precision: int = 6) -
         for c in skel.children(j):
             depth_of[c] = d + 1
             emit(c)
-        if j in skel.end_sites:
-            e = skel.end_sites[j] * scale
+        if j in ends:
+            e = ends[j] * scale
             out.extend([f"{pad}\tEnd Site", f"{pad}\t{{",
                         f"{pad}\t\tOFFSET {e[0]:.{precision}f} {e[1]:.{precision}f} {e[2]:.{precision}f}",
                         f"{pad}\t}}"])
@@ -292,7 +370,7 @@ def motion_to_bvh_text(motion: Motion, scale: float = 1.0, precision: int = 6) -
         group = [j for j in order if orders[j] == rot_order]
         for j, e in zip(group, np.moveaxis(quat_to_euler(motion.rotations[:, group], rot_order), 1, 0), strict=True):
             euler[j] = e
-    cols = [(motion.root - skel.offsets[0]) * scale] + [euler[j] for j in order]
+    cols = [motion.root * scale] + [euler[j] for j in order]
     frames = np.concatenate(cols, axis=1)
     out += ["MOTION", f"Frames: {len(frames)}", f"Frame Time: {1.0 / motion.fps:.8f}"]
     buf = io.StringIO()
@@ -319,18 +397,25 @@ def reoriented(motion: Motion, q: np.ndarray) -> Motion:
 
 
 class BvhFormat:
-    """The ``bvh`` motion format; ``scale`` converts file units on read (and back on write), and
-    ``up="z"`` turns Z-up files into our Y-up convention (and back on write)."""
+    """The ``bvh`` motion format; ``scale`` converts file units on read (and back on write),
+    ``up="z"`` turns Z-up files into our Y-up convention (and back on write), and ``root`` says how
+    the root's position channels are read: ``"absolute"`` (the BVH convention, what we write),
+    ``"relative"`` to the root OFFSET (files dance wrote before), or ``"auto"`` (the default):
+    relative only when the figure stands on the floor read that way and not read absolute
+    (:func:`reads_relative`)."""
 
-    def __init__(self, scale: float = 1.0, precision: int = 6, up: str = "y"):
+    def __init__(self, scale: float = 1.0, precision: int = 6, up: str = "y", root: str = "auto"):
+        if root not in ROOT_MODES:
+            raise DataError(f"bvh format: root must be one of {', '.join(ROOT_MODES)}, not {root!r}")
         self.scale = scale
         self.precision = precision
         self.up = up
+        self.root = root
 
     def _motion(self, path: str | Path) -> tuple[Motion, np.ndarray, list[str]]:
         skel, values, names, fps = parse_bvh(path, self.scale)
         skel.up = self.up
-        motion = frames_to_motion(skel, values, fps, self.scale, str(path))
+        motion = frames_to_motion(skel, values, fps, self.scale, str(path), self.root)
         return (reoriented(motion, Z_TO_Y_UP) if self.up == "z" else motion), values, names
 
     def read_motion(self, path: str | Path) -> Motion:
@@ -360,5 +445,6 @@ class BvhFormat:
 
 def build(config: Any = None, **_: Any) -> BvhFormat:
     """Build the ``bvh`` format."""
-    return BvhFormat(getattr(config, "scale", 1.0), getattr(config, "precision", 6), getattr(config, "up", "y"))
+    return BvhFormat(getattr(config, "scale", 1.0), getattr(config, "precision", 6), getattr(config, "up", "y"),
+                     getattr(config, "root", "auto"))
 

@@ -27,11 +27,16 @@ class PositionRepresentationConfig(ComponentConfig):
 
 
 class BvhFormatConfig(ComponentConfig):
-    """Length scale applied on read (inverted on write), decimals written, and the files' up axis."""
+    """Length scale applied on read (inverted on write), decimals written, the files' up axis, and how
+    the root's position channels are read."""
 
     scale: PositiveFloat = 1.0
     precision: PositiveInt = 6
     up: Literal["y", "z"] = Field("y", description="up axis of the files; z-up files are turned to y-up on read")
+    root: Literal["auto", "absolute", "relative"] = Field(
+        "auto", description="root position channels: absolute (the BVH convention, what dance writes), relative "
+        "to the root OFFSET (files dance wrote before), or auto: relative only when the figure stands on the "
+        "floor read that way and not read absolute")
 
 
 class SmplFormatConfig(ComponentConfig):
