@@ -67,9 +67,9 @@ def test_written_euler_angles_never_jump(tmp_path):
     from scipy.spatial.transform import Rotation
 
     from dance_core.motion.motion import Motion
-    from dance_core.motion.skeletons import smpl24
+    from dance_core.motion.skeletons import dance24
 
-    skel = smpl24()
+    skel = dance24()
     t = np.linspace(0, 1, 200)
     spin = Rotation.from_rotvec(np.outer(6 * np.pi * t, [0, 1, 0.2])).as_quat()
     rot = np.zeros((200, 24, 4))

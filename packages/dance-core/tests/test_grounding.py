@@ -8,12 +8,15 @@ from dance_core.motion.ik import two_bone_ik
 from dance_core.motion.motion import Motion
 from dance_core.motion.rotations import expmap_to_quat, quat_rotate
 from dance_core.motion.skeleton import Skeleton
-from dance_core.motion.skeletons import SMPL_REST, smpl24, transflower21
+from dance_core.motion.skeletons import dance24, transflower21
+
+REST = dance24().rest_positions()
+
 
 FPS = 20.0
 SOLE = GroundingOptions().sole
 #: root height with the lower toe joint ``SOLE`` above the floor, SMPL-24 at rest
-STAND = float(SMPL_REST[0, 1] - SMPL_REST[[10, 11], 1].min() + SOLE)
+STAND = float(REST[0, 1] - REST[[10, 11], 1].min() + SOLE)
 L_SHOULDER, R_SHOULDER, L_ELBOW, SPINE3, NECK = 16, 17, 18, 9, 12
 LEGS = {1, 2, 4, 5, 7, 8, 10, 11}  # hips, knees, ankles, toes
 UPPER = [j for j in range(24) if j not in LEGS and j != 0]
@@ -31,7 +34,7 @@ def dancer(seconds=4.0, lift=0.0):
     rot[:, NECK, 0] = 0.15 * np.sin(4 * np.pi * t)
     root = np.zeros((n, 3))
     root[:, 1] = STAND + lift
-    return Motion(smpl24(), FPS, root, expmap_to_quat(rot))
+    return Motion(dance24(), FPS, root, expmap_to_quat(rot))
 
 
 def soles(motion):
@@ -45,7 +48,7 @@ def horizontal_speed(motion, joint):
 
 
 def test_feet_are_found_by_name_and_a_skeleton_without_feet_is_skipped():
-    assert find_feet(smpl24()) == (7, 10, 8, 11)
+    assert find_feet(dance24()) == (7, 10, 8, 11)
     tf = transflower21()
     assert [tf.names[j] for j in find_feet(tf)] == ["LeftFoot", "LeftToeBase", "RightFoot", "RightToeBase"]
     stick = Skeleton(["root", "a", "b"], [-1, 0, 1], np.array([[0, 1.0, 0], [0, -0.5, 0], [0, -0.5, 0]]))

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from dance_core.components.wav import write_wav
-from dance_core.motion.skeletons import smpl24
+from dance_core.motion.skeletons import dance24
 from dance_core.render.frames import CENTER, LEFT, RIGHT
 from dance_core.render.html import write_html
 
@@ -141,7 +141,7 @@ class Chromium:
 
 def walker() -> tuple[np.ndarray, list[int], list[str]]:
     """SMPL's rest pose walking 5 m (4 m along x, 3 m along z) in 4 s, swinging its legs and arms."""
-    skel = smpl24()
+    skel = dance24()
     t = np.arange(LAST + 1) / FPS
     heading = np.array([0.8, 0.0, 0.6])
     pos = np.repeat(skel.rest_positions()[None], len(t), 0) + (t / SECONDS)[:, None, None] * 5.0 * heading

@@ -21,8 +21,10 @@ from dance_core.evaluation.metrics import (
     Freezing,
     PhysicalFootContact,
 )
-from dance_core.motion.skeletons import SMPL_REST
+from dance_core.motion.skeletons import dance24
 from dance_core.protocols import JointClip, Metric
+
+REST = dance24().rest_positions()
 
 
 def dancer(seed: int, seconds: float = 6.0, fps: float = 60.0, bpm: float = 120.0) -> JointClip:
@@ -30,7 +32,7 @@ def dancer(seed: int, seconds: float = 6.0, fps: float = 60.0, bpm: float = 120.
     rng = np.random.default_rng(seed)
     t = np.arange(int(seconds * fps)) / fps
     f = bpm / 60.0
-    rest = SMPL_REST - SMPL_REST[:, 1].min()
+    rest = REST - REST[:, 1].min()
     amp = rng.normal(0, 0.08, size=(24, 3))
     phase = rng.uniform(0, 2 * np.pi, size=(24, 3))
     p = rest[None] + amp[None] * np.sin(2 * np.pi * f * t[:, None, None] / 2 + phase[None])

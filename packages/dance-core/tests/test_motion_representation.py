@@ -74,7 +74,7 @@ def test_checkpoint_stores_the_representation_and_skeleton(run):
     recipe, result = run
     info = load_checkpoint(result.checkpoint).motion
     assert info["representation"] == {"plugin": "rotations", "rotation": "expmap", "root": "deltas", "joints": None}
-    assert info["skeleton"]["name"] == "smpl24" and info["dim"] == 4 + 24 * 3
+    assert info["skeleton"]["name"] == "dance24" and info["dim"] == 4 + 24 * 3
     assert info["channels"][:2] == ["root.dx", "root.dz"]
     json.dumps(info)
 

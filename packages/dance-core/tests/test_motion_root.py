@@ -8,7 +8,7 @@ from dance_core.motion.resample import resample_array
 from dance_core.motion.root import deltas_to_root, heading, root_to_deltas
 from dance_core.motion.rotations import quat_mul, yaw_quat
 from dance_core.motion.skeleton import Skeleton
-from dance_core.motion.skeletons import body25, smpl24, transflower21
+from dance_core.motion.skeletons import body25, dance24, transflower21
 
 
 def wandering(n=240, seed=0):
@@ -69,7 +69,7 @@ def symmetric(skel):
     return Skeleton(skel.names, skel.parents, off, name=skel.name)
 
 
-@pytest.mark.parametrize("make", [smpl24, transflower21])
+@pytest.mark.parametrize("make", [dance24, transflower21])
 def test_mirroring_reflects_positions_and_swaps_sides(make):
     skel = symmetric(make())
     m = motion_on(skel)
@@ -85,7 +85,7 @@ def test_builtin_skeletons_pair_left_and_right():
     names = body25().names
     pairs = body25().mirror_pairs()
     assert names[pairs[names.index("LWrist")]] == "RWrist" and names[pairs[names.index("Nose")]] == "Nose"
-    smpl = smpl24()
+    smpl = dance24()
     assert smpl.names[smpl.mirror_pairs()[smpl.index("L_Hand")]] == "R_Hand"
 
 
@@ -101,7 +101,7 @@ def test_resampling_keeps_slow_motion_and_removes_what_the_new_rate_cannot_hold(
 
 
 def test_motion_resample_slerps_rotations_and_keeps_source_frames():
-    m = motion_on(smpl24(), n=31)
+    m = motion_on(dance24(), n=31)
     up = m.resample(90.0)  # 3x: every third frame is a source frame
     assert up.n_frames == 93 and up.fps == 90.0
     assert np.abs(np.abs((up.rotations[::3] * m.rotations).sum(-1)) - 1).max() < 1e-9
@@ -116,6 +116,6 @@ def test_motion_resample_slerps_rotations_and_keeps_source_frames():
 
 def test_bad_motion_is_a_clear_error():
     with pytest.raises(DataError, match="rotations"):
-        Motion(smpl24(), 30.0, np.zeros((4, 3)), np.zeros((4, 5, 4)))
+        Motion(dance24(), 30.0, np.zeros((4, 3)), np.zeros((4, 5, 4)))
     with pytest.raises(DataError, match="parent"):
         Skeleton(["a", "b"], [-1, 1], np.zeros((2, 3)))

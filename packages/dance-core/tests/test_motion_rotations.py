@@ -4,7 +4,7 @@ from scipy.spatial.transform import Rotation
 
 from dance_core.motion import rotations as R
 from dance_core.motion.fk import forward_kinematics
-from dance_core.motion.skeletons import smpl24
+from dance_core.motion.skeletons import dance24
 
 ORDERS = ["XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"]
 
@@ -63,7 +63,7 @@ def test_quaternion_signs_are_made_continuous(quats):
 
 
 def test_forward_kinematics_batches():
-    skel = smpl24()
+    skel = dance24()
     rng = np.random.default_rng(0)
     q = Rotation.random(2 * 5 * 24, random_state=1).as_quat().reshape(2, 5, 24, 4)
     root = rng.normal(size=(2, 5, 3))
@@ -77,7 +77,7 @@ def test_forward_kinematics_batches():
 
 
 def test_identity_rotations_give_the_rest_pose():
-    skel = smpl24()
+    skel = dance24()
     q = np.zeros((1, 24, 4))
     q[..., 3] = 1
     pos, _ = forward_kinematics(skel, skel.offsets[:1], q)

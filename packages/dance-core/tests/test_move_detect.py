@@ -6,14 +6,17 @@ import pytest
 
 from dance_core.errors import DataError
 from dance_core.evaluation import move_detect as md
-from dance_core.motion.skeletons import SMPL_REST
+from dance_core.motion.skeletons import dance24
+
+REST = dance24().rest_positions()
+
 
 FPS = 30.0
 
 
 def still(seconds: float = 6.0) -> np.ndarray:
     """The rest pose (T-pose, facing +Z, feet 3 cm above the floor) held for ``seconds``."""
-    pose = SMPL_REST - np.array([0.0, SMPL_REST[:, 1].min() - 0.03, 0.0])
+    pose = REST - np.array([0.0, REST[:, 1].min() - 0.03, 0.0])
     return np.repeat(pose[None], int(seconds * FPS), axis=0).copy()
 
 

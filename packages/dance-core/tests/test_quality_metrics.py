@@ -8,7 +8,10 @@ from scipy.spatial.transform import Rotation
 
 from dance_core.evaluation import quality as Q
 from dance_core.motion.motion import Motion
-from dance_core.motion.skeletons import SMPL_NAMES, SMPL_PARENTS, SMPL_REST, smpl24
+from dance_core.motion.skeletons import SMPL_NAMES, SMPL_PARENTS, dance24
+
+REST = dance24().rest_positions()
+
 
 FPS = 60.0
 FEET = (7, 10, 8, 11)
@@ -16,7 +19,7 @@ FEET = (7, 10, 8, 11)
 
 def standing(frames: int, lift: float = 0.0) -> np.ndarray:
     """The SMPL rest pose for ``frames`` frames, its lowest foot joint at height ``lift``."""
-    pose = SMPL_REST - np.array([0.0, SMPL_REST[list(FEET), 1].min() - lift, 0.0])
+    pose = REST - np.array([0.0, REST[list(FEET), 1].min() - lift, 0.0])
     return np.repeat(pose[None], frames, axis=0).copy()
 
 
@@ -141,7 +144,7 @@ def test_bone_lengths_of_rigid_forward_kinematics_are_constant():
     frames = 200
     rotations = Rotation.from_rotvec(rng.normal(0, 0.6, (frames * 24, 3))).as_quat().reshape(frames, 24, 4)
     root = rng.normal(0, 0.5, (frames, 3))
-    positions = Motion(smpl24(), FPS, root, rotations).positions()
+    positions = Motion(dance24(), FPS, root, rotations).positions()
     assert Q.bone_length_constancy(positions, SMPL_PARENTS) < 1e-9
     stretched = positions.copy()
     stretched[::2, 20] += 0.05  # the left wrist jumps 5 cm every other frame

@@ -5,7 +5,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from dance_core import DataError, Motion
-from dance_core.motion.skeletons import smpl24
+from dance_core.motion.skeletons import dance24
 from dance_tokens.slerp import heading, slerp, slerp_splice
 
 
@@ -30,7 +30,7 @@ def motion(frames, seed, yaw=0.0, x=0.0):
     rot = Rotation.from_rotvec(rng.normal(0, 0.3, (frames, 24, 3)).reshape(-1, 3)).as_quat().reshape(frames, 24, 4)
     rot[:, 0] = (Rotation.from_rotvec([0, yaw, 0]) * Rotation.from_quat(rot[:, 0])).as_quat()
     root = np.stack([x + np.linspace(0, 1, frames), np.full(frames, 0.9), np.linspace(0, 2, frames)], 1)
-    return Motion(smpl24(), 30.0, root, rot)
+    return Motion(dance24(), 30.0, root, rot)
 
 
 def test_splice_places_the_clip_and_bridges_it_with_slerp():
@@ -63,6 +63,6 @@ def test_splice_near_the_end_is_cut_and_bad_input_is_one_line():
     assert slerp_splice(dance, clip, start=50).n_frames == 60
     with pytest.raises(DataError, match="start"):
         slerp_splice(dance, clip, start=0)
-    positions = Motion(smpl24(), 30.0, dance.root, joint_positions=np.zeros((60, 24, 3)))
+    positions = Motion(dance24(), 30.0, dance.root, joint_positions=np.zeros((60, 24, 3)))
     with pytest.raises(DataError, match="rotations"):
         slerp_splice(positions, clip, start=10)

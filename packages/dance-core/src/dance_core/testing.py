@@ -429,11 +429,12 @@ def check_feature(
 
 
 def dancing_clips(n: int = 3, seconds: float = 4.0, fps: float = 30.0, seed: int = 0) -> list[JointClip]:
-    """``n`` SMPL-24 dancers (metres, Y up, feet on the floor) bouncing on 120 BPM beats with swinging
-    limbs and a drifting root, with the music's beat times: input for metric checks."""
-    from dance_core.motion.skeletons import SMPL_NAMES, SMPL_REST
+    """``n`` dancers on the default skeleton (SMPL-24 joints; metres, Y up, feet on the floor) bouncing on
+    120 BPM beats with swinging limbs and a drifting root, with the music's beat times: input for metric
+    checks."""
+    from dance_core.motion.skeletons import SMPL_NAMES, dance24
 
-    rest = SMPL_REST - [0.0, SMPL_REST[:, 1].min(), 0.0]
+    rest = dance24().rest_positions()
     t = np.arange(int(round(seconds * fps))) / fps
     beats = np.arange(0.25, seconds, 0.5)
     clips = []

@@ -28,7 +28,7 @@ from dance_core.data.beat_grid import BeatGrid
 from dance_core.media import TextSpan, frame_count
 from dance_core.motion.motion import Motion
 from dance_core.motion.rotations import expmap_to_quat, quat_mul, quat_rotate, yaw_quat
-from dance_core.motion.skeletons import SMPL_REST, smpl24
+from dance_core.motion.skeletons import dance24
 
 MOVES = {
     "bounce": "a person bounces to the beat",
@@ -74,8 +74,9 @@ SECTION_WEIGHTS = {
 (PELVIS, L_HIP, R_HIP, SPINE1, L_KNEE, R_KNEE, SPINE2, L_ANKLE, R_ANKLE, SPINE3, L_FOOT, R_FOOT, NECK,
  L_COLLAR, R_COLLAR, HEAD, L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_WRIST, R_WRIST, L_HAND, R_HAND) = range(24)
 #: root height when standing: the pelvis above the lowest foot joint, plus the foot's thickness
-STAND = float(SMPL_REST[0, 1] - SMPL_REST[[10, 11], 1].min() + 0.03)
-THIGH = float(np.linalg.norm(SMPL_REST[4] - SMPL_REST[1]))
+_REST = dance24().rest_positions()
+STAND = float(_REST[0, 1] - _REST[[10, 11], 1].min() + 0.03)
+THIGH = float(np.linalg.norm(_REST[4] - _REST[1]))
 
 
 @dataclass
@@ -408,7 +409,7 @@ def render_moves(beat: np.ndarray, phi: np.ndarray, bpb: int, moves: np.ndarray,
     root[:, 1] += off[:, 1]
     quats = expmap_to_quat(rot)
     quats[:, 0] = quat_mul(h, quats[:, 0])
-    return Motion(smpl24(), fps, root, quats)
+    return Motion(dance24(), fps, root, quats)
 
 
 def _spans(grid: BeatGrid, changes: list[tuple[int, int]], seconds: float) -> tuple[TextSpan, ...]:

@@ -32,7 +32,7 @@ from dance_core.data.synthetic_dance import _motion_data
 from dance_core.media import Audio, TextSpan, frame_count
 from dance_core.motion.motion import Motion
 from dance_core.motion.rotations import expmap_to_quat, quat_mul, quat_rotate, yaw_quat
-from dance_core.motion.skeletons import smpl24
+from dance_core.motion.skeletons import dance24
 
 #: a stream of draws of its own: the same seed gives synthetic-dance and synthetic-moves unrelated clips
 STREAM = 0x6D6F7665
@@ -76,7 +76,7 @@ def perform(move: str, grid: BeatGrid, seconds: float, fps: float, style: Style,
     root[:, 1] += off[:, 1]
     quats = expmap_to_quat(rot)
     quats[:, 0] = quat_mul(h, quats[:, 0])
-    return Motion(smpl24(), fps, root, quats)
+    return Motion(dance24(), fps, root, quats)
 
 
 def make_move_clip(index: int, *, seed: int, seconds: tuple[float, float], bpm: tuple[float, float],

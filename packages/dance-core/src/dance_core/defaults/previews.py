@@ -1,5 +1,5 @@
 """Core's previews: stick-figure GIF, MP4 and offline HTML player (write-only motion formats), and
-``dance render``."""
+``dance render`` and ``dance retarget``."""
 
 from __future__ import annotations
 
@@ -18,7 +18,8 @@ def register_motion_formats(register):
 
 @hookimpl
 def register_commands(subparsers):
-    """``dance render``: a preview of a motion file."""
-    from dance_core.cli import render
+    """``dance render`` (a preview of a motion file) and ``dance retarget`` (a motion onto another rig)."""
+    from dance_core.cli import render, retarget
 
     render.add_parser(subparsers)
+    retarget.add_parser(subparsers)

@@ -81,10 +81,18 @@ class GroundingReport:
 
 
 def find_feet(skeleton: Skeleton) -> tuple[int, int, int, int] | None:
-    """Indices of (left ankle, left toe, right ankle, right toe), or None when the names are unknown."""
+    """Indices of (left ankle, left toe, right ankle, right toe), or None when the names are unknown:
+    the foot names the metrics know, else those of a built-in rig map (Unreal, ``mixamorig:``...)."""
     for names in FEET_BY_NAME:
         if all(n in skeleton.names for n in names):
             return tuple(skeleton.names.index(n) for n in names)  # type: ignore[return-value]
+    from dance_core.motion.rig_maps import PRESETS, apply_map
+
+    wanted = ("L_Ankle", "L_Foot", "R_Ankle", "R_Foot")
+    for name, table in PRESETS.items():
+        found = apply_map(skeleton, {k: table[k] for k in wanted if k in table}, name).joints
+        if all(k in found for k in wanted):
+            return tuple(found[k] for k in wanted)  # type: ignore[return-value]
     return None
 
 

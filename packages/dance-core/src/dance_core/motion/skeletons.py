@@ -1,4 +1,5 @@
-"""Built-in skeletons: SMPL-24 (AIST++), Transflower's 21-joint BVH set, OpenPose BODY_25 (2D)."""
+"""Built-in skeletons: our default ``dance24`` (SMPL-24 joint names, our own proportions), Transflower's
+21-joint BVH set, OpenPose BODY_25 (2D)."""
 
 from __future__ import annotations
 
@@ -12,17 +13,56 @@ SMPL_NAMES = [
     "R_Elbow", "L_Wrist", "R_Wrist", "L_Hand", "R_Hand",
 ]
 SMPL_PARENTS = [-1, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 9, 9, 12, 13, 14, 16, 17, 18, 19, 20, 21]
-#: rest joint positions (metres, Y up, +X to the body's left, +Z forward) of a mean-shaped SMPL template
-SMPL_REST = np.array([
-    [-0.0018, -0.2233, 0.0282], [0.0695, -0.3142, 0.0239], [-0.0677, -0.3145, 0.0214],
-    [-0.0025, -0.1033, 0.0120], [0.1040, -0.6760, 0.0170], [-0.1060, -0.6767, 0.0141],
-    [0.0050, 0.0302, 0.0045], [0.0885, -1.0782, -0.0255], [-0.0863, -1.0725, -0.0236],
-    [0.0017, 0.0836, 0.0355], [0.1210, -1.1276, 0.0920], [-0.1184, -1.1287, 0.0998],
-    [-0.0130, 0.2952, -0.0143], [0.0733, 0.2055, -0.0017], [-0.0728, 0.2047, -0.0043],
-    [0.0102, 0.3574, 0.0485], [0.1648, 0.2316, -0.0138], [-0.1592, 0.2299, -0.0213],
-    [0.4149, 0.2122, -0.0360], [-0.4108, 0.2101, -0.0438], [0.6679, 0.2197, -0.0338],
-    [-0.6673, 0.2189, -0.0424], [0.7546, 0.2137, -0.0491], [-0.7540, 0.2134, -0.0549],
-])
+#: Our default body, from published anthropometry: David A. Winter, *Biomechanics and Motor Control of
+#: Human Movement* (4th ed., Wiley 2009), Fig. 4.1, segment lengths and joint heights as fractions of
+#: body height H (after Drillis & Contini, 1966). Values are (x, y, z) in units of H, Y up, +X to the
+#: body's left, +Z forward, feet on the floor (y = 0), arms out in a T-pose. From Winter: heights of
+#: shoulder 0.818, chest 0.720, hip joint (greater trochanter) 0.530, knee 0.285, ankle 0.039, top of
+#: head 1.0; shoulder width 0.259, upper arm 0.186, forearm 0.146, hand 0.108, foot length 0.152.
+#: Our own choices (no source): hip joints 0.053 either side of the midline; the shoulder joints 0.020
+#: inside the ends of Winter's shoulder width (joint centres lie inside the acromia); the pelvis joint 0.045 above
+#: them; the spine split evenly up to the chest; collar bones from 0.012 off the midline at 0.800;
+#: neck 0.850 and head 0.900 (between the shoulder, chin 0.870 and eye 0.936 heights of Winter's figure);
+#: the hand joint halfway along the hand; the ankle 0.2 of the foot length in front of the heel, the
+#: ball of the foot (SMPL's "Foot") 0.55 of it further, 0.012 up.
+_W = {  # Winter's fractions of H used below
+    "shoulder": 0.818, "chest": 0.720, "hip": 0.530, "knee": 0.285, "ankle": 0.039, "top": 1.0,
+    "shoulder_width": 0.259, "upper_arm": 0.186, "forearm": 0.146, "hand": 0.108, "foot": 0.152,
+}
+_HIP_X, _PELVIS_UP, _COLLAR_X, _COLLAR_Y, _NECK_Y, _HEAD_Y = 0.053, 0.045, 0.012, 0.800, 0.850, 0.900
+_BALL_Y, _SHOULDER_IN = 0.012, 0.020
+#: body height of the default skeleton, metres
+DEFAULT_HEIGHT = 1.70
+
+
+def _default_rest() -> tuple[np.ndarray, dict[int, np.ndarray]]:
+    """Rest joint positions ``(24, 3)`` in units of H, SMPL's joint order, and End Site offsets."""
+    w = _W
+    pelvis = w["hip"] + _PELVIS_UP
+    spine = np.linspace(pelvis, w["chest"], 4)[1:]
+    sx = w["shoulder_width"] / 2 - _SHOULDER_IN
+    elbow, wrist = sx + w["upper_arm"], sx + w["upper_arm"] + w["forearm"]
+    hand = wrist + w["hand"] / 2
+    ball_z = 0.55 * w["foot"]
+    rows = {
+        "Pelvis": (0, pelvis, 0), "Spine1": (0, spine[0], 0), "Spine2": (0, spine[1], 0),
+        "Spine3": (0, spine[2], 0), "Neck": (0, _NECK_Y, 0), "Head": (0, _HEAD_Y, 0),
+    }
+    for side, sign in (("L", 1.0), ("R", -1.0)):
+        rows |= {
+            f"{side}_Hip": (sign * _HIP_X, w["hip"], 0), f"{side}_Knee": (sign * _HIP_X, w["knee"], 0),
+            f"{side}_Ankle": (sign * _HIP_X, w["ankle"], 0), f"{side}_Foot": (sign * _HIP_X, _BALL_Y, ball_z),
+            f"{side}_Collar": (sign * _COLLAR_X, _COLLAR_Y, 0), f"{side}_Shoulder": (sign * sx, w["shoulder"], 0),
+            f"{side}_Elbow": (sign * elbow, w["shoulder"], 0), f"{side}_Wrist": (sign * wrist, w["shoulder"], 0),
+            f"{side}_Hand": (sign * hand, w["shoulder"], 0),
+        }
+    rest = np.array([rows[n] for n in SMPL_NAMES], float)
+    ends = {SMPL_NAMES.index("Head"): np.array([0.0, w["top"] - _HEAD_Y, 0.0])}
+    for side, sign in (("L", 1.0), ("R", -1.0)):
+        ends[SMPL_NAMES.index(f"{side}_Foot")] = np.array([0.0, -_BALL_Y, 0.25 * w["foot"]])
+        ends[SMPL_NAMES.index(f"{side}_Hand")] = np.array([sign * w["hand"] / 2, 0.0, 0.0])
+    return rest, ends
+
 
 TRANSFLOWER_NAMES = [
     "Hips", "Spine", "Spine1", "Neck", "Head", "RightShoulder", "RightArm", "RightForeArm", "RightHand",
@@ -55,11 +95,15 @@ _BODY25_TREE = [  # (name, parent name, offset in metres; the image plane is x r
 ]
 
 
-def smpl24() -> Skeleton:
-    """The SMPL body's 24 joints (AIST++), offsets from a template body at rest (no body model)."""
-    offsets = SMPL_REST - np.where(np.array(SMPL_PARENTS)[:, None] >= 0, SMPL_REST[np.maximum(SMPL_PARENTS, 0)], 0.0)
-    offsets[0] = SMPL_REST[0]
-    return Skeleton(list(SMPL_NAMES), list(SMPL_PARENTS), offsets, units="m", name="smpl24")
+def dance24(height: float = DEFAULT_HEIGHT) -> Skeleton:
+    """Our default skeleton: SMPL's 24 joint names and parent order (so SMPL / AIST++ motion maps onto
+    it) with proportions from published anthropometry (Winter 2009, see ``_W``), ``height`` metres
+    tall, standing on the floor in a T-pose, End Sites at the top of the head, finger tips and toes."""
+    rest, ends = _default_rest()
+    rest, parents = rest * height, np.array(SMPL_PARENTS)
+    offsets = rest - np.where(parents[:, None] >= 0, rest[np.maximum(parents, 0)], 0.0)
+    return Skeleton(list(SMPL_NAMES), list(SMPL_PARENTS), offsets, end_sites={k: v * height for k, v in ends.items()},
+                    units="m", name="dance24")
 
 
 def transflower21() -> Skeleton:
