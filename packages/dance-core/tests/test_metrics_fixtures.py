@@ -1,5 +1,6 @@
 """Metrics on the real fixtures, read in place through the registered motion formats and FK."""
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +15,9 @@ from dance_core.registry import get_registry
 
 FIXTURES = Path(__file__).resolve().parents[3] / ".." / "shared" / "fixtures"
 
+sys.path.insert(0, str(Path(__file__).parent))
+from smpl_model_helpers import smpl_model  # noqa: E402, F401 - fixture: a synthetic SMPL model in DANCE_SMPL_MODEL
+
 
 def test_cmu_bvh_through_fk_gives_a_human_in_metres():
     (clip,) = load_clips(FIXTURES / "bvh", get_registry())
@@ -24,6 +28,7 @@ def test_cmu_bvh_through_fk_gives_a_human_in_metres():
     assert PhysicalFootContact()([clip]).values["PFC"] > 0.0  # feet found by name (LeftFoot, ...)
 
 
+@pytest.mark.usefixtures("smpl_model")
 def test_smpl_sample_has_geometric_features_and_zero_self_distance():
     (clip,) = load_clips(FIXTURES / "smpl", get_registry())
     assert clip.positions.shape == (127, 24, 3) and clip.fps == 60.0

@@ -1,6 +1,7 @@
 import json
 import os
 import pickle
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,10 +17,14 @@ from dance_core.motion.skeletons import BODY25_ORDER
 from dance_core.protocols import MotionData
 from dance_core.registry import get_registry
 
+sys.path.insert(0, str(Path(__file__).parent))
+from smpl_model_helpers import smpl_model  # noqa: E402, F401 - fixture: a synthetic SMPL model in DANCE_SMPL_MODEL
+
 SMPL_SAMPLE = Path(__file__).resolve().parents[3] / ".." / "shared" / "fixtures" / "smpl" / "smpl_sample.pkl"
 
 
-def test_reads_the_aist_sample_with_a_template_skeleton():
+@pytest.mark.usefixtures("smpl_model")
+def test_reads_the_aist_sample_on_the_models_skeleton():
     data = read_motion(SMPL_SAMPLE, get_registry())
     motion = data.skeleton_motion
     assert data.values.shape == (127, 75) and motion.fps == 60.0 and len(motion.skeleton) == 24
@@ -32,6 +37,7 @@ def test_reads_the_aist_sample_with_a_template_skeleton():
     np.testing.assert_allclose(bones, np.broadcast_to(lengths, bones.shape))
 
 
+@pytest.mark.usefixtures("smpl_model")
 def test_smpl_write_read_round_trip_with_scaling(tmp_path):
     fmt = SmplFormat()
     motion = fmt.read_motion(SMPL_SAMPLE)
@@ -48,6 +54,7 @@ class Evil:
         return (os.system, ("echo pwned",))
 
 
+@pytest.mark.usefixtures("smpl_model")
 @pytest.mark.parametrize("payload", [Evil(), {"smpl_poses": Evil()}, {"x": Path("/etc")}])
 def test_the_restricted_unpickler_refuses_anything_but_containers_and_arrays(tmp_path, payload):
     path = tmp_path / "evil.pkl"
@@ -66,6 +73,7 @@ def test_the_restricted_unpickler_admits_arrays_in_every_protocol(tmp_path, prot
     assert back["s"] == 1.5 and back["l"] == [1, (2, "x")] and back["b"] == b"\x00\x01"
 
 
+@pytest.mark.usefixtures("smpl_model")
 @pytest.mark.parametrize("data, match", [
     ({"smpl_trans": np.zeros((3, 3))}, "smpl_poses: missing"),
     ({"smpl_poses": np.zeros((3, 70)), "smpl_trans": np.zeros((3, 3))}, r"smpl_poses: expected finite \(frames, 72\)"),

@@ -52,7 +52,7 @@ def compose(args: Namespace) -> int:
 
 def _compose_inputs(args: Namespace, recipe) -> tuple[list[str] | None, str | None]:
     """The songs and checkpoint compose will read, and the folder it will write, checked before any work."""
-    from dance_core.cli.checks import check_input_dir, check_input_file, check_output_dir, warn
+    from dance_core.cli.checks import check_input_dir, check_input_file, check_output_dir, check_smpl_model, warn
 
     c = recipe.compose
     where = "--music" if args.music else "compose.music"
@@ -72,8 +72,9 @@ def _compose_inputs(args: Namespace, recipe) -> tuple[list[str] | None, str | No
     if c.seed_motion not in (None, "rest"):  # as given, else beside the recipe (as compose reads it)
         given, beside = c.seed_motion, recipe.resolve_path(c.seed_motion)
         option = "--seed-motion" if args.seed_motion else "compose.seed_motion"
-        check_input_file(beside if not Path(given).exists() and Path(beside).exists() else given, option,
-                         "motion file")
+        seed = check_input_file(beside if not Path(given).exists() and Path(beside).exists() else given, option,
+                                "motion file")
+        check_smpl_model([seed])  # an AIST++ seed without its SMPL model stops before the model is loaded
     check_output_dir(args.out or c.out_dir, "-o" if args.out else "compose.out_dir")
     if c.temperature > TEMPERATURE_WARN:
         option = "--temperature" if args.temperature is not None else "compose.temperature"

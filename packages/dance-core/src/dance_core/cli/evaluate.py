@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import argparse
 
-from dance_core.cli.checks import bounded_number
+from dance_core.cli.checks import bounded_number, smpl_model_option
 
 
 def add_parser(subparsers) -> None:
@@ -47,6 +47,7 @@ def add_parser(subparsers) -> None:
         metavar=".EXT",
         help="read only motion files with this suffix (repeatable; default: every registered format's)",
     )
+    smpl_model_option(p)
     p.add_argument("--json", action="store_true", help="print the JSON report on stdout (the table goes to stderr)")
     p.set_defaults(run=run)
 
@@ -55,10 +56,13 @@ def check_args(args: argparse.Namespace) -> None:
     """Folders read and files written, checked before any clip is loaded."""
     from pathlib import Path
 
-    from dance_core.cli.checks import check_input_dir, check_output_dir, check_output_file
+    from dance_core.cli.checks import check_input_dir, check_output_dir, check_output_file, check_smpl_model
 
-    check_input_dir(args.generated, "--generated", "folder of motion files")
-    check_input_dir(args.reference, "--reference", "folder of motion files")
+    generated = check_input_dir(args.generated, "--generated", "folder of motion files")
+    reference = check_input_dir(args.reference, "--reference", "folder of motion files")
+    wanted = {s.lower() if s.startswith(".") else f".{s.lower()}" for s in args.suffixes or ()}
+    check_smpl_model(p for folder in (generated, reference) for p in sorted(folder.iterdir())
+                     if p.is_file() and (not wanted or p.suffix.lower() in wanted))
     if args.music is not None:
         check_input_dir(args.music, "--music", "folder of songs")
     out = check_output_file(args.out, "-o")

@@ -9,7 +9,7 @@ import sys
 import textwrap
 
 from dance_core.cli import commands
-from dance_core.cli.checks import bounded_number, shard_arg
+from dance_core.cli.checks import bounded_number, shard_arg, smpl_model_option, use_smpl_model
 from dance_core.errors import DanceError
 from dance_core.plugins import DEFAULT_PLUGINS, ENV_STRICT
 
@@ -135,6 +135,7 @@ def _compose_parser(sub) -> None:
     p.add_argument("--seconds", type=bounded_number(float, 0.0, 3600.0, above=True, unit="s"),
                    help="length of each dance in seconds, up to 3600 (default: the whole song)")
     p.add_argument("--seed-motion", metavar="FILE", help="motion file to start from, or 'rest'")
+    smpl_model_option(p)
     p.add_argument("--format", dest="formats", action="append", metavar="NAME",
                    help="output format, e.g. bvh, npz, html, gif (repeatable; default: compose.formats)")
     p.add_argument("--text", dest="texts", action="append", metavar="[START-END:] TEXT",
@@ -172,6 +173,7 @@ def _train_parser(sub) -> None:
     p.add_argument("--nproc-per-node", type=bounded_number(int, 1, 1024), metavar="N",
                    help="train on N processes of this machine through torch's launcher, as torchrun "
                    "--standalone --nproc-per-node N does (one per GPU; gloo on CPU)")
+    smpl_model_option(p)
     _sets(p)
     p.set_defaults(run=commands.train)
 
@@ -306,6 +308,7 @@ def main(argv: list[str] | None = None) -> int:
 
         install_sigterm_handler()
     try:
+        use_smpl_model(args)  # --smpl-model, on the commands that read motion files
         return args.run(args) or 0
     except DanceError as exc:
         if args.debug:

@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from dance_core.cli.checks import bounded_number
+from dance_core.cli.checks import bounded_number, smpl_model_option
 
 #: what ``-o`` may end in (the suffix picks the kind of preview)
 SUFFIXES = (".gif", ".mp4", ".html")
@@ -35,6 +35,7 @@ def add_parser(subparsers) -> None:
                    help="preview frame rate, up to 240 (default: the motion's, at most 30)")
     p.add_argument("--seconds", type=bounded_number(float, 0.0, above=True), help="render only the first SECONDS")
     p.add_argument("--no-trail", action="store_true", help="do not draw the root's trail on the floor")
+    smpl_model_option(p)
     p.set_defaults(run=run)
 
 

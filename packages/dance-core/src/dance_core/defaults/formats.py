@@ -25,7 +25,8 @@ def register_motion_formats(register):
     register("bvh", mc.BvhFormatConfig, f"{_F}.bvh:build",
              "BVH mocap: any channel order, End Sites, continuous Euler", suffixes=(".bvh",))
     register("smpl", mc.SmplFormatConfig, f"{_F}.smpl:build",
-             "AIST++ SMPL pickles (smpl_poses, smpl_trans), restricted unpickler", suffixes=(".pkl",))
+             "AIST++ SMPL pickles (smpl_poses, smpl_trans) on your SMPL model's joints (model, --smpl-model), "
+             "restricted unpickler", suffixes=(".pkl",))
     register("joints", mc.JointsFormatConfig, f"{_F}.joints:build",
              "HumanML3D new_joints arrays (T, 22, 3)", suffixes=(".npy",))
     register("keypoints", mc.KeypointsFormatConfig, f"{_F}.keypoints:build",

@@ -40,10 +40,17 @@ class BvhFormatConfig(ComponentConfig):
 
 
 class SmplFormatConfig(ComponentConfig):
-    """Frame rate of AIST++ pickles (they store none) and the translation scale to metres."""
+    """Frame rate of AIST++ pickles (they store none), the translation scale to metres, and the user's
+    SMPL body model file that gives the joint positions."""
 
     fps: PositiveFloat = 60.0
     trans_scale: PositiveFloat | None = Field(None, description="multiply smpl_trans; default 1/smpl_scaling")
+    model: str | None = Field(
+        None, json_schema_extra={"path": True},
+        description="SMPL body model file (SMPL_NEUTRAL.pkl or .npz from smpl.is.tue.mpg.de, licensed by its "
+        "authors): the rest joints are its J_regressor @ v_template; relative to the recipe; default the "
+        "DANCE_SMPL_MODEL environment variable (dance ... --smpl-model PATH sets it)",
+    )
 
 
 class JointsFormatConfig(ComponentConfig):
