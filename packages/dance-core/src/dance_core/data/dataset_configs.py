@@ -154,3 +154,22 @@ class MixConfig(ComponentConfig):
                             "input": e.get("input")} for e in exc.errors()]
         if errors:
             raise ValidationError.from_exception_data(type(self).__name__, errors)
+
+
+class MocapDatasetConfig(ComponentConfig):
+    """A folder of motion-capture takes of any rig (no music), retargeted on load onto one skeleton."""
+
+    path: str = Field(description="folder of motion files (BVH or any registered motion format), relative to "
+                      "the recipe")
+    files: list[str] | None = Field(None, description="file name patterns to take (e.g. ['salsa_*.bvh']); "
+                                    "default every readable motion file")
+    exclude: list[str] = Field(default_factory=list, description="file name patterns to leave out (held-out takes)")
+    skeleton: str = Field("dance24", description="skeleton the takes are retargeted onto: a built-in name "
+                          "(dance24, transflower21) or a motion file whose skeleton it is (relative to the recipe)")
+    source_map: str | None = Field(None, description="joint map of the takes: a preset (smpl, cmu, cmu-daz, "
+                                   "mixamo, unreal) or a YAML file; default detected per take")
+    ground: bool = Field(True, description="put the retargeted feet on the floor and stop them skating")
+    motion_fps: PositiveFloat | None = Field(None, description="frame rate of the clips; default the recipe's")
+    sample_rate: PositiveInt = Field(22050, description="rate of the silent audio each clip carries")
+    cache: str | None = Field(None, description="cache folder of retargeted takes; default "
+                              "$XDG_CACHE_HOME/dance/mocap (the takes' folder may be read-only)")

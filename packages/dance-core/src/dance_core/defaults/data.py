@@ -13,14 +13,16 @@ def register_datasets(register):
     register("synthetic-beats", c.SyntheticBeatsConfig, "dance_core.components.synthetic:build",
              "click-track music with known beats and a beat-locked dancer")
     register("synthetic-dance", dc.SyntheticDanceConfig, "dance_core.data.synthetic_dance:build",
-             "synthesized songs (drums, bass, chords) with a beat-locked SMPL dancer and move labels")
+             "synthesized songs (drums, bass, chords) with a beat-locked dancer (dance24) and move labels")
     register("synthetic-moves", dc.SyntheticMovesConfig, "dance_core.data.synthetic_moves:build",
-             "text-motion clips: the SMPL dancer performing one move alone, described in words, no music")
+             "text-motion clips: the synthetic dancer performing one move alone, described in words, no music")
     register("mix", dc.MixConfig, "dance_core.data.mix:build",
              "the clips of several datasets in one training set (optionally without a part's texts)")
     register("folder", dc.FolderDatasetConfig, "dance_core.data.folders:build_folder",
              "a folder of name.<audio> + name.<motion> pairs (optional name.texts), cached features")
     register("aist", dc.AistDatasetConfig, "dance_core.data.folders:build_aist",
              "AIST++ layout: motions/*.pkl (SMPL, 60 fps), wav/, splits/; music id from the name")
+    register("mocap", dc.MocapDatasetConfig, "dance_core.data.mocap:build",
+             "a folder of motion-capture takes of any rig (no music), retargeted onto one skeleton, cached")
     register("humanml3d", dc.HumanMLConfig, "dance_core.data.folders:build_humanml",
              "HumanML3D new_joints (T, 22, 3) at 20 fps with captions (no music)")
