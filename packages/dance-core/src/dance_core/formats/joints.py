@@ -11,7 +11,7 @@ from dance_core.atomic import atomic_path
 from dance_core.errors import DataError
 from dance_core.motion.motion import Motion
 from dance_core.motion.skeleton import Skeleton
-from dance_core.motion.skeletons import smpl24
+from dance_core.motion.skeletons import dance24
 from dance_core.protocols import MotionData
 
 HUMANML_JOINTS = 22
@@ -19,7 +19,7 @@ HUMANML_JOINTS = 22
 
 def smpl22() -> Skeleton:
     """SMPL without the two hand joints: HumanML3D's 22-joint skeleton."""
-    s = smpl24()
+    s = dance24()
     return Skeleton(s.names[:HUMANML_JOINTS], s.parents[:HUMANML_JOINTS], s.offsets[:HUMANML_JOINTS], name="smpl22")
 
 
