@@ -223,6 +223,26 @@ def test_cli_retargets_and_writes_nothing_on_failure(tmp_path, capsys):
     assert main(["retarget", str(take), "--to", str(legless), "-o", str(nowhere)]) == 1
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "L_Hip" in err and "mixamo" in err
+    assert f"{legless}:2:" in err  # file:LINE of the rig's root
+    mismatched = tmp_path / "mismatched.bvh"
+    mismatched.write_text(rig.read_text().replace("Frames: 1", "Frames: 2") + "0 0 0\n", encoding="utf-8")
+    assert main(["retarget", str(take), "--to", str(mismatched), "-o", str(nowhere)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"{mismatched}:" in err and "channels" in err
+    collapsed = tmp_path / "collapsed.bvh"
+    text = BvhFormat().read_motion(rig)
+    arm = text.skeleton.names.index("mixamorig:LeftForeArm")
+    lines = rig.read_text().splitlines()
+    at = text.skeleton.lines[arm]
+    for k in range(at, at + 40):  # the forearm, hand and hand-middle offsets collapsed onto the shoulder
+        if lines[k].strip().startswith("OFFSET"):
+            lines[k] = lines[k].split("OFFSET")[0] + "OFFSET 0 0 0"
+        if "End Site" in lines[k]:
+            break
+    collapsed.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    assert main(["retarget", str(take), "--to", str(collapsed), "-o", str(nowhere)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "zero-length" in err and f"{collapsed}:" in err
     assert not nowhere.exists()
 
 

@@ -47,6 +47,7 @@ class _Parser:
         self.offsets: list[list[float]] = []
         self.channels: list[tuple[str, ...]] = []
         self.end_sites: dict[int, np.ndarray] = {}
+        self.joint_lines: dict[int, int] = {}
 
     def fail(self, what: str):
         """Raise a one-line error naming the file and the line of the token at fault."""
@@ -81,6 +82,7 @@ class _Parser:
     def joint(self, parent: int) -> None:
         """One joint (name, offset, channels, children and End Site) and everything below it."""
         name = self.take()
+        self.joint_lines[len(self.names)] = self.lines[self.i - 1]
         if name.upper() == "SITE":  # "End Site" reached through a misplaced keyword
             self.fail("End Site outside a joint")
         index = len(self.names)
@@ -216,7 +218,7 @@ def parse_bvh(path: str | Path, scale: float = 1.0) -> tuple[Skeleton, np.ndarra
     values = _frame_rows(path, lines, first + 2, n_frames, n_ch)
     skel = Skeleton(p.names, p.parents, np.array(p.offsets) * scale, p.channels,
                     {k: v * scale for k, v in p.end_sites.items()}, name=path.stem,
-                    units="file" if scale == 1.0 else f"file x {scale:g}")
+                    units="file" if scale == 1.0 else f"file x {scale:g}", lines=p.joint_lines, source=str(path))
     names = [f"{p.names[j]}.{c}" for j in range(len(p.names)) for c in p.channels[j]]
     return skel, values, names, _fps(frame_time)
 

@@ -99,7 +99,8 @@ class Motion:
         inverse = {old: new for new, old in enumerate(perm)}
         skel = Skeleton([s.names[i] for i in perm], [inverse[s.parents[i]] if s.parents[i] >= 0 else -1 for i in perm],
                         s.offsets[perm], [s.channels[i] for i in perm],
-                        {inverse[k]: v for k, v in s.end_sites.items()}, s.units, s.up, s.name)
+                        {inverse[k]: v for k, v in s.end_sites.items()}, s.units, s.up, s.name,
+                        {inverse[k]: v for k, v in s.lines.items()}, s.source)
         return replace(self, skeleton=skel,
                        rotations=None if self.rotations is None else self.rotations[:, perm],
                        joint_positions=None if self.joint_positions is None else self.joint_positions[:, perm])

@@ -80,20 +80,22 @@ def _bone(skel: Skeleton, rest: np.ndarray, rmap: RigMap, canonical: str, where:
         stack.extend(reversed(skel.children(k)))
     if not CHAIN[canonical] and np.linalg.norm(skel.offsets[j]) > tiny:
         return _unit(skel.offsets[j])
-    raise DataError(f"{where}: joint {skel.names[j]!r} and everything below it are at one rest position "
+    raise DataError(f"{skel.where(j) if skel.source else where}: joint {skel.names[j]!r} and everything below it "
+                    "are at one rest position "
                     "(zero-length bones): cannot tell where its bone points")
 
 
 def rig_frames(skeleton: Skeleton, spec=None, where: str = "") -> RigFrames:
     """A rig's rest frames and leg length (``spec``: a preset name, a YAML map or None to detect)."""
-    where = where or skeleton.name
+    where = skeleton.where() if skeleton.source else (where or skeleton.name)
     rmap = rig_map(skeleton, spec, where)
     rest = skeleton.rest_positions()
     idx = rmap.joints
     left = rest[idx["L_Hip"]] - rest[idx["R_Hip"]] + rest[idx["L_Shoulder"]] - rest[idx["R_Shoulder"]]
     left[1] = 0.0
     if np.linalg.norm(left) < 1e-6 * skeleton.height():
-        raise DataError(f"{where}: the left and right hips and shoulders are at the same rest position")
+        raise DataError(f"{skeleton.where(idx['L_Hip']) if skeleton.source else where}: the left and right hips "
+                        "and shoulders are at the same rest position")
     up = np.array([0.0, 1.0, 0.0])
     forward = _unit(np.cross(_unit(left), up))
     frames = {}
@@ -118,7 +120,8 @@ def rig_frames(skeleton: Skeleton, spec=None, where: str = "") -> RigFrames:
         legs.append(np.linalg.norm(knee - hip) + np.linalg.norm(ankle - knee) + ankle[1] - min(p[1] for p in feet))
     leg = float(np.mean(legs))
     if leg <= 1e-6 * skeleton.height():
-        raise DataError(f"{where}: the feet are not below the hips in the rest pose (leg length {leg:g})")
+        raise DataError(f"{skeleton.where(idx['L_Hip']) if skeleton.source else where}: the feet are not below "
+                        f"the hips in the rest pose (leg length {leg:g})")
     return RigFrames(skeleton, rmap, frames, leg, forward)
 
 

@@ -47,6 +47,9 @@ class Skeleton:
     units: str = "m"
     up: str = "y"
     name: str = "skeleton"
+    #: where each joint was declared (joint index -> line), and in which file, for errors; not compared
+    lines: dict[int, int] = field(default_factory=dict, compare=False, repr=False)
+    source: str = field(default="", compare=False, repr=False)
 
     def __post_init__(self):
         self.offsets = np.asarray(self.offsets, dtype=np.float64).reshape(-1, 3)
@@ -73,6 +76,13 @@ class Skeleton:
             return self.names.index(name)
         except ValueError:
             raise DataError(f"skeleton {self.name}: no joint named {name!r}") from None
+
+    def where(self, j: int | None = None) -> str:
+        """``file:LINE`` of joint ``j`` (or of the root) when the skeleton was read from a file, else its name."""
+        if not self.source:
+            return self.name
+        line = self.lines.get(0 if j is None else j)
+        return f"{self.source}:{line}" if line else self.source
 
     def children(self, j: int) -> list[int]:
         """Direct children of joint ``j``."""
@@ -115,7 +125,8 @@ class Skeleton:
     def scaled(self, factor: float, units: str | None = None) -> Skeleton:
         """A copy with offsets (and end sites) multiplied by ``factor``."""
         return Skeleton(list(self.names), list(self.parents), self.offsets * factor, list(self.channels),
-                        {k: v * factor for k, v in self.end_sites.items()}, units or self.units, self.up, self.name)
+                        {k: v * factor for k, v in self.end_sites.items()}, units or self.units, self.up, self.name,
+                        dict(self.lines), self.source)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able description (stored in checkpoints)."""
