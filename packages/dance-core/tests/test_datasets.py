@@ -125,6 +125,35 @@ def test_aist_layout(tmp_path):
         dataset_sources(recipe)
 
 
+
+@pytest.mark.usefixtures("smpl_model")
+def test_aist_takes_the_smpl_model_from_the_recipe_or_says_what_it_needs(tmp_path, monkeypatch):
+    import os
+
+    from dance_core.formats.smpl_model import ENV_MODEL
+
+    model = Path(os.environ[ENV_MODEL])  # the synthetic model, in tmp_path beside the recipe
+
+    seq = "gBR_sBM_cAll_d04_mBR0_ch01"
+    clip = make_clip(0, seed=2, seconds=2.0, bpm=(100.0, 100.0), rate=8000, fps=60.0)
+    data = tmp_path / "aist"
+    for sub in ("motions", "wav", "splits"):
+        (data / sub).mkdir(parents=True)
+    SmplFormat().write_motion(clip.motion.skeleton_motion, data / "motions" / f"{seq}.pkl")
+    write_wav(data / "wav" / "mBR0.wav", clip.audio.samples, clip.audio.rate)
+    (data / "splits" / "crossmodal_train.txt").write_text(f"{seq}\n")
+    monkeypatch.delenv(ENV_MODEL)
+    recipe = tmp_path / "aist.yaml"
+    dataset = f"{{plugin: aist, path: aist, smpl_model: {model.name}}}"
+    recipe.write_text(f"extends: core-dance\ndata:\n  dataset: {dataset}\n", encoding="utf-8")
+    sources = dataset_sources(load_recipe(recipe))  # the model named in the recipe, relative to it
+    assert sources[0].motion.skeleton_motion.skeleton.name == "smpl24"
+    recipe.write_text("extends: core-dance\ndata:\n  dataset: {plugin: aist, path: aist}\n")
+    with pytest.raises(DataError) as err:
+        dataset_sources(load_recipe(recipe))
+    assert "\n" not in str(err.value) and "--smpl-model" in str(err.value) and "motions" in str(err.value)
+
+
 def test_humanml3d_layout(tmp_path):
     (tmp_path / "new_joints").mkdir()
     (tmp_path / "texts").mkdir()

@@ -53,6 +53,9 @@ class AistDatasetConfig(ComponentConfig):
     path: str
     split: str | None = Field("crossmodal_train", description="split list name (splits/<name>.txt); None: all")
     max_offset: float = Field(1.0, ge=0.0)
+    smpl_model: str | None = Field(
+        None, description="your SMPL body model file (.pkl or .npz from smpl.is.tue.mpg.de), relative to the "
+        "recipe: the joint positions of the pickles; default DANCE_SMPL_MODEL (dance train --smpl-model PATH)")
 
 
 class HumanMLConfig(ComponentConfig):

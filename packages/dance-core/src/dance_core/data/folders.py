@@ -51,6 +51,7 @@ class AistDataset:
 
     def __init__(self, config: Any, root: str = "."):
         self.config = config
+        self.root = root
         self.folder = _root(config.path, root)
 
     def names(self) -> list[str]:
@@ -70,8 +71,14 @@ class AistDataset:
         return [n for n in names if n not in skip]
 
     def clips(self) -> list[ClipSource]:
-        """Every sequence of the split with its music."""
-        registry = get_registry()
+        """Every sequence of the split with its music (motion on the recipe's or the environment's SMPL model)."""
+        from dance_core.formats.smpl import SmplFormat
+        from dance_core.formats.smpl_model import missing_model, model_from_env
+
+        model = str(_root(self.config.smpl_model, self.root)) if self.config.smpl_model else model_from_env()
+        if model is None:  # one line before any file is read
+            raise missing_model(self.folder / "motions")
+        smpl = SmplFormat(model=model)
         out = []
         for name in self.names():
             music = AIST_MUSIC.search(name)
@@ -85,7 +92,9 @@ class AistDataset:
                 raise DataError(f"{pkl}: no audio partner ({wav} not found)")
             meta = {"feature_cache": str(self.folder / ".dance-cache"), "max_offset": self.config.max_offset,
                     "music": music.group(1)}
-            out.append(ClipSource(name, read_motion_file(pkl, registry, "smpl"), audio_path=str(wav), meta=meta))
+            motion = smpl.read(str(pkl))
+            motion.meta.setdefault("path", str(pkl))
+            out.append(ClipSource(name, motion, audio_path=str(wav), meta=meta))
         return out
 
 
