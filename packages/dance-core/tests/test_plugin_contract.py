@@ -133,15 +133,27 @@ class FakeEntryPoint:
         raise ImportError("No module named 'ghost_plugin'")
 
 
-@pytest.fixture
-def ghost_installed(monkeypatch):
+class MisnamedArgument:
+    @hookimpl
+    def register_heads(self, reg):  # the spec's argument is ``register``
+        reg("never", None, "x:y")
+
+
+class MisnamedEntryPoint:
+    name, value, dist = "misnamed", "misnamed_plugin:plugin", None
+
+    def load(self):
+        return MisnamedArgument()
+
+
+def _installed(monkeypatch, entry_point):
     from dance_core import plugins, registry
 
     real = importlib.metadata.entry_points
 
     def fake(group=None, **kw):
         found = list(real(group=group, **kw))
-        return found + [FakeEntryPoint()] if group == plugins.GROUP else found
+        return found + [entry_point] if group == plugins.GROUP else found
 
     monkeypatch.setattr(plugins, "entry_points", fake)
     plugins.get_plugin_manager.cache_clear()
@@ -149,6 +161,16 @@ def ghost_installed(monkeypatch):
     yield
     plugins.get_plugin_manager.cache_clear()
     registry.reset()
+
+
+@pytest.fixture
+def ghost_installed(monkeypatch):
+    yield from _installed(monkeypatch, FakeEntryPoint())
+
+
+@pytest.fixture
+def misnamed_installed(monkeypatch):
+    yield from _installed(monkeypatch, MisnamedEntryPoint())
 
 
 def test_a_plugin_that_cannot_import_does_not_stop_the_cli(ghost_installed, capsys, monkeypatch):
@@ -163,6 +185,32 @@ def test_strict_makes_a_broken_plugin_an_error(ghost_installed, capsys, monkeypa
     monkeypatch.setenv("DANCE_STRICT_PLUGINS", "0")  # main sets it to 1; restored after
     assert main(["--strict", "plugins"]) == 1
     assert "plugin 'ghost'" in capsys.readouterr().err
+
+
+def test_a_hook_with_a_misnamed_argument_is_skipped_and_listed_broken(misnamed_installed, capsys, monkeypatch):
+    monkeypatch.delenv("DANCE_STRICT_PLUGINS", raising=False)
+    assert main(["plugins"]) == 0
+    out, err = capsys.readouterr()
+    line = "hook register_heads(reg) does not match the spec register_heads(register)"
+    assert [w for w in err.splitlines() if "misnamed" in w] == [
+        f"dance: warning: plugin 'misnamed' from misnamed is broken and was skipped: {line} "
+        "(--strict stops on it; DANCE_LOAD_PLUGINS='' loads no plugin)"
+    ]
+    assert f"BROKEN\t\tmisnamed\tmisnamed\t\t{line}" in out.splitlines()
+    assert "Traceback" not in err and "never" not in out
+
+
+def test_strict_makes_a_misnamed_argument_an_error(misnamed_installed, capsys, monkeypatch):
+    monkeypatch.setenv("DANCE_STRICT_PLUGINS", "0")
+    assert main(["--strict", "plugins"]) == 1
+    err = capsys.readouterr().err
+    assert "plugin 'misnamed'" in err and "register_heads(reg)" in err and "Traceback" not in err
+
+
+def test_the_test_kit_names_a_misnamed_argument():
+    message = r"register_heads\(reg\) does not match"
+    with pytest.raises(PluginError, match=message), registered_plugin(MisnamedArgument(), "misnamed"):
+        pass
 
 
 def test_load_plugins_naming_nothing_warns(monkeypatch, capsys):

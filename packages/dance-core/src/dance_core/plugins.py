@@ -1,9 +1,10 @@
 """The plugin manager: core's default plugins, entry points of the group ``dance``, hook checks.
 
-A third-party plugin that fails to import, implements a hook that does not exist, or fails while
-registering is skipped with a one-line warning (``dance plugins`` lists it as broken), so that one
-broken install does not stop every command; ``--strict`` (or ``DANCE_STRICT_PLUGINS=1``) makes it an
-error instead. ``DANCE_LOAD_PLUGINS=a,b`` loads only the named plugins (``''``: none).
+A third-party plugin that fails to import, implements a hook that does not exist or with arguments
+its spec lacks, or fails while registering is skipped with a one-line warning (``dance plugins``
+lists it as broken), so that one broken install does not stop every command; ``--strict`` (or
+``DANCE_STRICT_PLUGINS=1``) makes it an error instead. ``DANCE_LOAD_PLUGINS=a,b`` loads only the named
+plugins (``''``: none).
 """
 
 from __future__ import annotations
@@ -68,6 +69,15 @@ class DancePluginManager(pluggy.PluginManager):
             f"(--strict stops on it; {ENV_ALLOW}='' loads no plugin)"
         )
 
+    def add(self, plugin: object, name: str) -> bool:
+        """Register a plugin; one whose hooks pluggy rejects is skipped (an error when strict)."""
+        try:
+            self.register(plugin, name=name)
+        except pluggy.PluginValidationError as exc:
+            self.skip(name, spec_mismatch(self, plugin) or " ".join(str(exc).split()))
+            return False
+        return True
+
 
 def warn(message: str) -> None:
     """Print one warning line on stderr."""
@@ -118,7 +128,7 @@ def _load_entry_points(pm: DancePluginManager) -> None:
         except Exception as exc:
             pm.skip(ep.name, f"cannot import {ep.value}: {type(exc).__name__}: {exc}")
             continue
-        pm.register(plugin, name=ep.name)
+        pm.add(plugin, ep.name)
 
 
 def unknown_hooks(pm: pluggy.PluginManager) -> dict[str, list[str]]:
@@ -131,6 +141,29 @@ def unknown_hooks(pm: pluggy.PluginManager) -> dict[str, list[str]]:
             if not impl.optionalhook:
                 found.setdefault(impl.plugin_name, []).append(name)
     return found
+
+
+def _signature(name: str, args: tuple[str, ...]) -> str:
+    return f"{name}({', '.join(args)})"
+
+
+def spec_mismatch(pm: pluggy.PluginManager, plugin: object) -> str | None:
+    """``hook register_heads(reg) does not match the spec register_heads(register)``, or None."""
+    for attr in dir(plugin):
+        opts = pm.parse_hookimpl_opts(plugin, attr)
+        if opts is None:
+            continue
+        impl = pluggy.HookImpl(plugin, "", getattr(plugin, attr), opts)
+        hook = opts.get("specname") or attr
+        caller = getattr(pm.hook, hook, None)
+        spec = caller.spec if caller is not None else None
+        if spec is None or not set(impl.argnames) - {*spec.argnames, *spec.kwargnames}:
+            continue
+        return (
+            f"hook {_signature(hook, (*impl.argnames, *impl.kwargnames))} does not match "
+            f"the spec {_signature(hook, (*spec.argnames, *spec.kwargnames))}"
+        )
+    return None
 
 
 def hook_hint(name: str) -> str:

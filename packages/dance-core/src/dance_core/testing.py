@@ -56,9 +56,9 @@ def registered_plugin(plugin: Any, name: str) -> Iterator[registry.Registry]:
     for other, _ in set_aside:
         pm.unregister(name=other)
     strict, pm.strict = pm.strict, True
-    pm.register(plugin, name=name)
-    registry.reset()
     try:
+        pm.add(plugin, name)
+        registry.reset()
         check_hooks(pm)
         yield registry.get_registry()
     finally:
