@@ -2,7 +2,8 @@
 
 A builder registered for a kind is called as ``build(config, **fields(context))``: the fields of that
 kind's context arrive as keyword arguments, so a builder takes the ones it needs and ``**_`` for the
-rest. Kinds without a context here are built from their config alone.
+rest. Which kind receives which context is its row in ``dance_core.kinds``; kinds with ``NoContext``
+are built from their config alone.
 """
 
 from __future__ import annotations
@@ -55,20 +56,6 @@ class DatasetContext:
 @dataclass(frozen=True)
 class NoContext:
     """Kinds built from their config alone (features, readers, formats, representations, metrics...)."""
-
-
-#: the context type each kind's builder receives
-CONTEXTS: dict[str, type] = {
-    "conditioner": ConditionerContext,
-    "encoder": EncoderContext,
-    "head": HeadContext,
-    "dataset": DatasetContext,
-}
-
-
-def context_type(kind: str) -> type:
-    """The context dataclass of a kind (``NoContext`` for kinds built from their config alone)."""
-    return CONTEXTS.get(kind, NoContext)
 
 
 def as_kwargs(context: Any) -> dict[str, Any]:

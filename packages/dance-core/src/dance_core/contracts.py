@@ -1,4 +1,5 @@
-"""What a built component must be: its kind's protocol (and a ``torch.nn.Module`` for model parts).
+"""What a built component must be: its kind's protocol (and a ``torch.nn.Module`` for kinds holding
+weights), both read from the kind's row in ``dance_core.kinds``.
 
 Checked by the registry every time it builds a component, so a plugin that breaks its contract fails
 at once with one line naming the plugin and what is missing, instead of training with its weights
@@ -12,26 +13,9 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from dance_core import protocols as p
 from dance_core.config import ComponentConfig
 from dance_core.errors import PluginError
-
-#: kind -> the protocol its components satisfy
-PROTOCOLS: dict[str, type] = {
-    "conditioner": p.Conditioner,
-    "encoder": p.Encoder,
-    "head": p.OutputHead,
-    "feature": p.FeatureExtractor,
-    "audio-reader": p.AudioReader,
-    "motion-format": p.MotionFormat,
-    "motion-representation": p.MotionRepresentation,
-    "dataset": p.Dataset,
-    "metric": p.Metric,
-    "schedule": p.Schedule,
-}
-
-#: kinds whose components hold trained weights: they must be ``torch.nn.Module``s
-MODULE_KINDS = frozenset({"conditioner", "encoder", "head"})
+from dance_core.kinds import KINDS
 
 _IGNORED = {"__init__", "__class_getitem__", "__init_subclass__", "__subclasshook__", "__parameters__"}
 
@@ -77,14 +61,15 @@ def check_component(kind: str, obj: Any, label: str) -> Any:
     """
     if obj is None:
         raise PluginError(f"{label}: its builder returned None")
-    if kind in MODULE_KINDS:
+    row = KINDS[kind]
+    if row.weights:
         torch = sys.modules.get("torch")
         if torch is None or not isinstance(obj, torch.nn.Module):
             raise PluginError(
                 f"{label}: built a {type(obj).__name__}, which is not a torch.nn.Module "
                 "(its weights would be left out of checkpoints)"
             )
-    protocol = PROTOCOLS.get(kind)
+    protocol = row.protocol
     if protocol is not None:
         missing = missing_members(obj, protocol)
         if missing:

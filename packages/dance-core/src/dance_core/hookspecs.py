@@ -1,4 +1,9 @@
-"""Hook specifications: one hook per component kind, each receiving a ``register`` callback."""
+"""Hook specifications: one hook per component kind, each receiving a ``register`` callback.
+
+Each kind's row in ``dance_core.kinds`` names its hook here; the functions stay written out because
+pluggy reads their signatures and the docs their docstrings (``Register <the kind's description>.``).
+``tests/test_kinds.py`` checks the two agree.
+"""
 
 from __future__ import annotations
 

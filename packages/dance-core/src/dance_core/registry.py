@@ -1,9 +1,11 @@
 """The registry: every component by kind, and the one API to look up, validate, build and select them.
 
-Each entry knows its plugin, distribution, config model and builder. ``Registry.create`` validates
-options with the entry's config, builds it with the kind's typed context (``dance_core.contexts``)
-and checks the result against the kind's protocol (``dance_core.contracts``); ``for_suffix`` picks the
-reader of a file by suffix and priority. Every caller in core and the first-party plugins uses these.
+Each entry knows its plugin, distribution, config model, builder and capabilities (the ``info``
+keywords its kind accepts, validated at registration). ``Registry.create`` validates options with the
+entry's config, builds it with the kind's typed context and checks the result against the kind's
+protocol (``dance_core.contracts``), all read from the kind's row in ``dance_core.kinds``;
+``for_suffix`` picks the reader of a file by suffix and priority. Every caller in core and the
+first-party plugins uses these.
 """
 
 from __future__ import annotations
@@ -18,25 +20,14 @@ from typing import Any
 import pluggy
 from pydantic import BaseModel, ValidationError
 
-from dance_core.contexts import as_kwargs, context_type
+from dance_core import kinds
+from dance_core.contexts import as_kwargs
 from dance_core.contracts import check_component, check_config_type
 from dance_core.errors import PluginError
 from dance_core.plugins import get_plugin_manager, plugin_distribution
 
-#: component kind -> the hook that registers it
-KINDS: dict[str, str] = {
-    "conditioner": "register_conditioners",
-    "encoder": "register_encoders",
-    "head": "register_heads",
-    "feature": "register_feature_extractors",
-    "audio-reader": "register_audio_readers",
-    "motion-format": "register_motion_formats",
-    "motion-representation": "register_motion_representations",
-    "dataset": "register_datasets",
-    "metric": "register_metrics",
-    "schedule": "register_schedules",
-    "recipe": "register_recipes",
-}
+#: component kind -> the hook that registers it (a view of ``dance_core.kinds.KINDS``)
+KINDS: dict[str, str] = {row.name: row.hook for row in kinds.KINDS.values()}
 
 
 def resolve_target(target: Callable[..., Any] | str) -> Callable[..., Any]:
@@ -73,7 +64,7 @@ class Entry:
     distribution: str
     version: str
     description: str = ""
-    info: dict[str, Any] = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)  # the kind's capabilities, validated, defaults included
 
     @property
     def label(self) -> str:
@@ -118,7 +109,7 @@ class Entry:
         """Build the component from its validated config and the kind's context, then check its contract."""
         if config is None and self.config is not None:
             config = self.config()
-        want = context_type(self.kind)
+        want = kinds.KINDS[self.kind].context
         if context is not None and not isinstance(context, want):
             raise TypeError(f"{self.label} is built with a {want.__name__}, not a {type(context).__name__}")
         built = resolve_target(self.target)(config, **as_kwargs(context))
@@ -172,13 +163,14 @@ class Registry:
             check_config_type(config, label)
             if not (callable(build) or (isinstance(build, str) and (kind == "recipe" or ":" in build))):
                 raise PluginError(f"{label}: build must be a callable or a 'module:function' string, not {build!r}")
+            checked = capabilities(kind, info, label)
             existing = self._entries[kind].get(name)
             if existing is not None:
                 raise PluginError(
                     f"two plugins register the {kind} {name!r}: {existing.plugin} "
                     f"({existing.distribution} {existing.version}) and {plugin} ({dist} {version})"
                 )
-            entry = Entry(kind, name, config, build, plugin, dist, version, description, dict(info))
+            entry = Entry(kind, name, config, build, plugin, dist, version, description, checked)
             self._entries[kind][name] = entry
             added.append(entry)
 
@@ -229,6 +221,23 @@ class Registry:
         suffix = name_or_suffix.lower()
         entry = self.for_suffix(kind, suffix if suffix.startswith(".") else f".{suffix}", readable=False)
         return entry if entry is not None else self.get(kind, name_or_suffix)
+
+
+def capabilities(kind: str, info: Mapping[str, Any], label: str) -> dict[str, Any]:
+    """The ``info`` keywords validated by the kind's capabilities model, or one ``PluginError`` line."""
+    model = kinds.KINDS[kind].capabilities
+    if model is None:
+        if info:
+            raise PluginError(f"{label}: {kind}s take no info keywords (got {', '.join(info)})")
+        return {}
+    try:
+        return model.model_validate(dict(info)).model_dump()
+    except ValidationError as exc:
+        known = ", ".join(kinds.KINDS[kind].info_keywords())
+        parts = [f"{'.'.join(map(str, e['loc']))}: " + (f"unknown {kind} keyword (known: {known})"
+                 if e["type"] == "extra_forbidden" else e["msg"].removeprefix("Value error, "))
+                 for e in exc.errors()]
+        raise PluginError(f"{label}: {'; '.join(parts)}") from None
 
 
 def unknown_message(kind: str, name: str, known: list[str]) -> str:
