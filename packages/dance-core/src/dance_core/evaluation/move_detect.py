@@ -12,9 +12,11 @@ they can judge whether a generated dance performs a move it was asked for:
   pelvis and ``CLAP_HEIGHT`` above it), come within ``CLAP_CLOSE`` of each other at a local minimum of
   their distance, having been at least ``CLAP_APPROACH`` farther apart within ``CLAP_LEAD`` seconds
   before (a fast approach, not hands merely held together); the frames of the approach are marked.
-  ``CLAP_CLOSE`` is 50 cm, not a touch: the synthetic dancer's clap leaves 30-50 cm between its hand
-  joints (SMPL's hand joints sit at the knuckles' base, and its arms swing from the shoulders alone), so
-  this detects the hands swung together in front on the beat rather than their contact;
+  ``CLAP_CLOSE`` is 60 cm, not a touch: the synthetic dancer's clap leaves 40-60 cm between its hand
+  joints on the default skeleton (``dance24``; its arms swing from the shoulders alone, and its shoulders
+  are wider and its arms longer than those of the SMPL template it replaced, on which the clap left 30-50
+  cm and the threshold was 50 cm), so this detects the hands swung together in front on the beat rather
+  than their contact;
 - **spin**: the facing direction (the hips' left-right axis on the ground plane) turns more than
   ``SPIN_DEGREES`` within ``SPIN_SECONDS`` while the pelvis's path on the ground is shorter than
   ``SPIN_TRAVEL`` (a turn on the spot, not a walk round a circle); the frames of such a stretch that
@@ -42,7 +44,7 @@ from dance_core.errors import DataError
 
 FLOOR_SECONDS = 4.0
 JUMP_FEET, JUMP_PELVIS = 0.04, 0.05
-CLAP_CLOSE, CLAP_APPROACH, CLAP_LEAD, CLAP_AHEAD, CLAP_HEIGHT = 0.5, 0.25, 0.3, 0.1, -0.1
+CLAP_CLOSE, CLAP_APPROACH, CLAP_LEAD, CLAP_AHEAD, CLAP_HEIGHT = 0.6, 0.25, 0.3, 0.1, -0.1
 SPIN_DEGREES, SPIN_SECONDS, SPIN_TRAVEL, SPIN_RATE = 270.0, 2.5, 0.5, 90.0
 KICK_FORWARD, KICK_LIFT = 0.3, 0.12
 ARMS_ABOVE, ARMS_AHEAD = 0.05, 0.2
