@@ -132,6 +132,18 @@ def test_seed_motion_file(tiny_recipe, checkpoint, tmp_path):
         )
 
 
+def test_output_formats_are_written_with_the_recipes_format_options(tiny_recipe, checkpoint, tmp_path):
+    import zipfile
+
+    s = song(tmp_path / "s.wav", 1.0)
+    for compress, method in ((True, zipfile.ZIP_DEFLATED), (False, zipfile.ZIP_STORED)):
+        out = tmp_path / str(compress)
+        [path] = compose(tiny_recipe(f"formats.npz.compress={str(compress).lower()}"), music=[s],
+                         checkpoint=str(checkpoint), out_dir=str(out), quiet=True)
+        with zipfile.ZipFile(path) as z:
+            assert {info.compress_type for info in z.infolist()} == {method}
+
+
 def test_threads_option_sets_torch_threads(tiny_recipe, checkpoint, tmp_path):
     import torch
 

@@ -31,7 +31,8 @@ _LAZY: dict[str, str] = {
         "dance_core.protocols",
     ),
     # what a builder receives besides its config
-    **dict.fromkeys(("ConditionerContext", "EncoderContext", "HeadContext", "DatasetContext"), "dance_core.contexts"),
+    **dict.fromkeys(("ConditionerContext", "EncoderContext", "HeadContext", "DatasetContext", "FormatOptions"),
+                    "dance_core.contexts"),
     # media
     **dict.fromkeys(("Audio", "FeatureInputs", "TextSpan", "frame_count"), "dance_core.media"),
     **dict.fromkeys(("ClipSource",), "dance_core.data.sources"),
@@ -86,7 +87,13 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time the names load l
         check_output_dir,
         check_output_file,
     )
-    from dance_core.contexts import ConditionerContext, DatasetContext, EncoderContext, HeadContext  # noqa: F401
+    from dance_core.contexts import (  # noqa: F401
+        ConditionerContext,
+        DatasetContext,
+        EncoderContext,
+        FormatOptions,
+        HeadContext,
+    )
     from dance_core.data.features import check_audio_path, load_audio  # noqa: F401
     from dance_core.data.sources import ClipSource  # noqa: F401
     from dance_core.media import Audio, FeatureInputs, TextSpan, frame_count  # noqa: F401

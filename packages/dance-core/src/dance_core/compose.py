@@ -11,6 +11,7 @@ import torch
 
 from dance_core.atomic import OutputSet, sweep_stale_temps
 from dance_core.checkpoint import Checkpoint, check_matches, load_checkpoint, load_weights
+from dance_core.contexts import DEFAULT_FORMATS, FormatOptions
 from dance_core.data.features import FeatureStack, load_audio
 from dance_core.data.files import read_motion_file
 from dance_core.data.prepare import decode_motion, encode_seed, stored_representation
@@ -37,12 +38,15 @@ class Song:
     texts: tuple[TextSpan, ...] = ()
 
 
-def seed_motion(spec: str | None, ckpt: Checkpoint, frames: int, registry: Registry) -> np.ndarray:
-    """Normalized seed ``(frames, D)``: the mean pose for ``rest``/None, else a motion file."""
+def seed_motion(
+    spec: str | None, ckpt: Checkpoint, frames: int, registry: Registry, formats: FormatOptions = DEFAULT_FORMATS
+) -> np.ndarray:
+    """Normalized seed ``(frames, D)``: the mean pose for ``rest``/None, else a motion file (read with its
+    format's options in ``formats``)."""
     dim = ckpt.motion["dim"]
     if spec in (None, "rest"):
         return np.zeros((frames, dim), np.float32)
-    motion = encode_seed(ckpt.motion, read_motion_file(spec, registry), registry)
+    motion = encode_seed(ckpt.motion, read_motion_file(spec, registry, formats=formats), registry)
     if motion.values.shape[1] != dim:
         raise DataError(f"{spec}: seed motion has {motion.values.shape[1]} channels, the model {dim}")
     if abs(motion.fps - ckpt.motion["fps"]) > 1e-6:
@@ -77,7 +81,7 @@ def load_song(
     texts: list[TextSpec] = (),
 ) -> Song:
     """Features of one song (and its text spans), standardized with the checkpoint's statistics."""
-    audio = load_audio(path, registry)
+    audio = load_audio(path, registry, stack.formats)
     n_audio = audio.n_frames(stack.fps)
     spans = song_texts(list(texts), n_audio / stack.fps, path)
     raw = stack.extract(n_audio, audio, spans)
@@ -197,7 +201,8 @@ def compose_songs(
         features = ", ".join(s.plugin for specs in recipe.features.values() for s in specs)
         raise RecipeError(f"{recipe._origin}: compose.texts: this model reads no text (features: {features}); "
                           "drop --text or use a recipe with a text feature such as tm2d-small")
-    formats = [(entry, entry.build()) for entry in (registry.find("motion-format", f) for f in c.formats)]
+    formats = [(entry, recipe.format_options.build(entry))
+               for entry in (registry.find("motion-format", f) for f in c.formats)]
     stems = dict(zip(songs_in, _output_stems(songs_in, c.samples), strict=True))  # every song's, before sharding
     mine = shard.select(songs_in) if shard else songs_in
     out = Path(out_dir or c.out_dir)
@@ -215,7 +220,8 @@ def compose_songs(
     device = pick_device(c.device, c.threads)
     model, ckpt, stack = load_model(recipe, checkpoint, device)
     start = model.start_frames()
-    seed = torch.from_numpy(seed_motion(_beside_recipe(c.seed_motion, recipe), ckpt, start, registry))
+    seed_values = seed_motion(_beside_recipe(c.seed_motion, recipe), ckpt, start, registry, recipe.format_options)
+    seed = torch.from_numpy(seed_values)
     per_batch = c.batch_songs
     note = batching_note(model) if per_batch > 1 and len(todo) > 1 else None
     if note:

@@ -45,12 +45,34 @@ class HeadContext:
 
 
 @dataclass(frozen=True)
+class FormatOptions:
+    """A recipe's ``formats:``: the validated options of motion formats and audio readers, by kind and
+    name. ``build(entry)`` builds a format or reader with them (with its defaults when none are given)."""
+
+    configs: Mapping[tuple[str, str], Any] = field(default_factory=dict)
+
+    def config(self, kind: str, name: str) -> Any:
+        """The options given for one format or reader (``None``: its defaults)."""
+        return self.configs.get((kind, name))
+
+    def build(self, entry: Any) -> Any:
+        """Build a registry ``Entry`` (a motion format or audio reader) with the options given for it."""
+        return entry.build(self.config(entry.kind, entry.name))
+
+
+#: no ``formats:`` options: every format and reader built with its defaults
+DEFAULT_FORMATS = FormatOptions()
+
+
+@dataclass(frozen=True)
 class DatasetContext:
-    """A dataset produces clips at the recipe's ``fps`` and ``seed``; relative paths are from ``root``."""
+    """A dataset produces clips at the recipe's ``fps`` and ``seed``; relative paths are from ``root``;
+    motion and audio files it picks by suffix are read with the recipe's ``formats`` options."""
 
     fps: float
     seed: int = 0
     root: str = "."
+    formats: FormatOptions = DEFAULT_FORMATS
 
 
 @dataclass(frozen=True)

@@ -16,8 +16,12 @@ import sys
 import tempfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from dance_core.errors import DanceError
+
+if TYPE_CHECKING:
+    from dance_core.contexts import FormatOptions
 
 
 def _fmt(value: float) -> str:
@@ -208,9 +212,10 @@ def use_smpl_model(args: argparse.Namespace) -> None:
     os.environ[ENV_MODEL] = str(path.resolve())
 
 
-def check_smpl_model(files: Iterable[str | Path]) -> None:
+def check_smpl_model(files: Iterable[str | Path], formats: FormatOptions | None = None) -> None:
     """Before any heavy work: when one of ``files`` is read by the smpl format (AIST++ pickles), the SMPL
-    model it needs is given and reads well; else the format's one-line error naming that file."""
+    model it needs is given (by ``formats``, a recipe's ``FormatOptions``, or the environment) and reads
+    well; else the format's one-line error naming that file."""
     from dance_core.registry import get_registry
 
     registry = get_registry()
@@ -220,7 +225,7 @@ def check_smpl_model(files: Iterable[str | Path]) -> None:
             continue
         from dance_core.formats.smpl_model import load_body_model, missing_model
 
-        model = entry.build().model_path()
+        model = (formats.build(entry) if formats is not None else entry.build()).model_path()
         if model is None:
             raise missing_model(f)
         load_body_model(model)  # read once and cached: a bad model file stops here too

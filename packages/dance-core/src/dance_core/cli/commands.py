@@ -74,7 +74,8 @@ def _compose_inputs(args: Namespace, recipe) -> tuple[list[str] | None, str | No
         option = "--seed-motion" if args.seed_motion else "compose.seed_motion"
         seed = check_input_file(beside if not Path(given).exists() and Path(beside).exists() else given, option,
                                 "motion file")
-        check_smpl_model([seed])  # an AIST++ seed without its SMPL model stops before the model is loaded
+        # an AIST++ seed without its SMPL model (formats.smpl.model or --smpl-model) stops before the model loads
+        check_smpl_model([seed], recipe.format_options)
     check_output_dir(args.out or c.out_dir, "-o" if args.out else "compose.out_dir")
     if c.temperature > TEMPERATURE_WARN:
         option = "--temperature" if args.temperature is not None else "compose.temperature"

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dance_core.contexts import DEFAULT_FORMATS, FormatOptions
 from dance_core.errors import DataError
 from dance_core.media import Audio, FeatureInputs, TextSpan
 from dance_core.recipe.schema import Recipe
@@ -14,12 +15,12 @@ from dance_core.registry import Registry
 MIN_SECONDS = 0.5
 
 
-def audio_reader_for(path: Path, registry: Registry):
-    """The registered audio reader for a file suffix."""
+def audio_reader_for(path: Path, registry: Registry, formats: FormatOptions = DEFAULT_FORMATS):
+    """The registered audio reader for a file suffix, built with its options in ``formats``."""
     suffix = path.suffix.lower()
     entry = registry.for_suffix("audio-reader", suffix)  # the highest ``priority=`` wins (core's: 0)
     if entry is not None:
-        return entry.build()
+        return formats.build(entry)
     known = sorted(registry.suffixes("audio-reader"))
     more = "" if len(registry.entries("audio-reader")) > 1 else "; install dance-audio for more formats"
     raise DataError(
@@ -39,10 +40,11 @@ def check_audio_path(path: str | Path) -> Path:
     return path
 
 
-def load_audio(path: str | Path, registry: Registry) -> Audio:
-    """Read a music file; missing, empty or too-short files are one-line errors."""
+def load_audio(path: str | Path, registry: Registry, formats: FormatOptions = DEFAULT_FORMATS) -> Audio:
+    """Read a music file (its reader built with its options in ``formats``, a recipe's ``formats:``);
+    missing, empty or too-short files are one-line errors."""
     path = check_audio_path(path)
-    audio = audio_reader_for(path, registry).read(str(path))
+    audio = audio_reader_for(path, registry, formats).read(str(path))
     if audio.duration < MIN_SECONDS:
         raise DataError(f"{path}: audio is {audio.duration:.2f} s long; at least {MIN_SECONDS} s needed")
     return audio
@@ -60,6 +62,13 @@ class FeatureStack:
         #: the extractors and their options, per stream (what feature caches are keyed by)
         self.signature = {name: [{"plugin": s.plugin, **s.options()} for s in specs]
                           for name, specs in recipe.features.items()}
+        #: the recipe's ``formats:``: the audio readers' options when songs are read for these features
+        self.formats: FormatOptions = recipe.format_options
+
+    def reader_options(self) -> dict[str, dict]:
+        """Audio readers given options by the recipe, by name (part of a feature cache's key when any)."""
+        return {name: config.model_dump(mode="json") for (kind, name), config in sorted(self.formats.configs.items())
+                if kind == "audio-reader" and config is not None}
 
     def categorical(self) -> dict[str, np.ndarray]:
         """Per stream, which channels hold ids (extractors with ``categorical = True``): never standardized."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from dance_core.contexts import DEFAULT_FORMATS, FormatOptions
 from dance_core.errors import DataError
 from dance_core.media import TextSpan
 from dance_core.protocols import MotionData
@@ -20,14 +21,17 @@ def audio_suffixes(registry: Registry) -> set[str]:
     return set(registry.suffixes("audio-reader"))
 
 
-def read_motion_file(path: str | Path, registry: Registry, fmt: str | None = None) -> MotionData:
-    """Read a motion file with the format chosen for its suffix (highest priority), or the named format."""
+def read_motion_file(
+    path: str | Path, registry: Registry, fmt: str | None = None, formats: FormatOptions = DEFAULT_FORMATS
+) -> MotionData:
+    """Read a motion file with the format chosen for its suffix (highest priority), or the named format,
+    built with its options in ``formats`` (a recipe's ``formats:``)."""
     path = Path(path)
     entry = registry.get("motion-format", fmt) if fmt else registry.for_suffix("motion-format", path.suffix)
     if entry is None:
         known = ", ".join(motion_suffixes(registry))
         raise DataError(f"{path}: no motion format reads {path.suffix or 'files without a suffix'!r} ({known})")
-    data = entry.build().read(str(path))
+    data = formats.build(entry).read(str(path))
     data.meta.setdefault("path", str(path))  # every format: errors about this motion can name its file
     return data
 

@@ -10,6 +10,7 @@ import re
 from pathlib import Path
 from typing import Any
 
+from dance_core.contexts import DEFAULT_FORMATS, FormatOptions
 from dance_core.data.files import pair_folder, read_motion_file, read_texts
 from dance_core.data.sources import ClipSource
 from dance_core.errors import DataError
@@ -27,10 +28,11 @@ def _root(path: str, root: str) -> Path:
 class FolderDataset:
     """``name.wav|.ogg|.mp3`` + ``name.bvh|.pkl|.npz|...`` pairs, optional ``name.texts``."""
 
-    def __init__(self, config: Any, root: str = "."):
+    def __init__(self, config: Any, root: str = ".", formats: FormatOptions = DEFAULT_FORMATS):
         self.config = config
         self.folder = _root(config.path, root)
         self.cache = str(_root(config.cache, root)) if config.cache else str(self.folder / ".dance-cache")
+        self.formats = formats
 
     def clips(self) -> list[ClipSource]:
         """Every pair in the folder."""
@@ -40,8 +42,8 @@ class FolderDataset:
             texts_file = motion.with_suffix(".texts")
             texts = read_texts(texts_file) if texts_file.exists() else ()
             meta = {"feature_cache": self.cache, "max_offset": self.config.max_offset}
-            out.append(ClipSource(name, read_motion_file(motion, registry), audio_path=str(audio), texts=texts,
-                                  meta=meta))
+            out.append(ClipSource(name, read_motion_file(motion, registry, formats=self.formats),
+                                  audio_path=str(audio), texts=texts, meta=meta))
         return out
 
 
@@ -147,9 +149,9 @@ class HumanMLDataset:
         return tuple(spans)
 
 
-def build_folder(config: Any, *, root: str = ".", **_: Any) -> FolderDataset:
-    """Build the ``folder`` dataset."""
-    return FolderDataset(config, root)
+def build_folder(config: Any, *, root: str = ".", formats: FormatOptions = DEFAULT_FORMATS, **_: Any) -> FolderDataset:
+    """Build the ``folder`` dataset (its motion files read with the recipe's ``formats:`` options)."""
+    return FolderDataset(config, root, formats)
 
 
 def build_aist(config: Any, *, root: str = ".", **_: Any) -> AistDataset:

@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Any
 
-from dance_core.contexts import DatasetContext
+from dance_core.contexts import DEFAULT_FORMATS, DatasetContext, FormatOptions
 from dance_core.data.sources import ClipSource
 
 
@@ -41,6 +41,8 @@ class Mix:
         return out
 
 
-def build(config: Any, *, fps: float, seed: int = 0, root: str = ".", **_: Any) -> Mix:
+def build(
+    config: Any, *, fps: float, seed: int = 0, root: str = ".", formats: FormatOptions = DEFAULT_FORMATS, **_: Any
+) -> Mix:
     """Build the ``mix`` dataset (each part with the same context)."""
-    return Mix(config, DatasetContext(fps=fps, seed=seed, root=root))
+    return Mix(config, DatasetContext(fps=fps, seed=seed, root=root, formats=formats))

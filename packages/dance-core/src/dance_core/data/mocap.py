@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from dance_core.contexts import DEFAULT_FORMATS, FormatOptions
 from dance_core.data.cache import FeatureCache, file_digest
 from dance_core.data.files import motion_files, read_motion_file
 from dance_core.data.sources import ClipSource
@@ -45,7 +46,7 @@ def _resolve(path: str, root: str) -> Path:
     return p if p.is_absolute() else Path(root) / p
 
 
-def target_skeleton(spec: str, root: str = ".") -> Skeleton:
+def target_skeleton(spec: str, root: str = ".", formats: FormatOptions = DEFAULT_FORMATS) -> Skeleton:
     """A built-in skeleton by name, or the skeleton of a motion file."""
     from dance_core.motion import skeletons
 
@@ -54,7 +55,7 @@ def target_skeleton(spec: str, root: str = ".") -> Skeleton:
     path = _resolve(spec, root)
     if not path.is_file():
         raise DataError(f"{path}: data.dataset.skeleton: no such motion file (or give dance24 or transflower21)")
-    data = read_motion_file(path, get_registry())
+    data = read_motion_file(path, get_registry(), formats=formats)
     if data.skeleton_motion is None:
         raise DataError(f"{path}: data.dataset.skeleton: the file has no skeleton")
     return data.skeleton_motion.skeleton
@@ -63,8 +64,9 @@ def target_skeleton(spec: str, root: str = ".") -> Skeleton:
 class MocapDataset:
     """Takes of a folder retargeted onto one skeleton at one frame rate (see the module's note)."""
 
-    def __init__(self, config: Any, fps: float, root: str = "."):
+    def __init__(self, config: Any, fps: float, root: str = ".", formats: FormatOptions = DEFAULT_FORMATS):
         self.config = config
+        self.formats = formats
         self.fps = config.motion_fps or fps
         self.root = root
         self.folder = _resolve(config.path, root)
@@ -84,7 +86,7 @@ class MocapDataset:
         """Every take as a music-less clip on the dataset's skeleton."""
         from dance_core.motion.retarget import rig_frames
 
-        target = target_skeleton(self.config.skeleton, self.root)
+        target = target_skeleton(self.config.skeleton, self.root, self.formats)
         rig_frames(target, None, self.config.skeleton)  # a target that cannot be mapped fails before any take
         source_map = self.config.source_map
         if source_map is not None and not _is_preset(source_map):
@@ -92,6 +94,10 @@ class MocapDataset:
         settings = {"v": VERSION, "skeleton": target.to_dict(), "fps": self.fps, "map": source_map,
                     "map_file": file_digest(source_map) if source_map and Path(source_map).is_file() else None,
                     "ground": self.config.ground}
+        read = {f"{kind}:{name}": config.model_dump(mode="json")
+                for (kind, name), config in sorted(self.formats.configs.items()) if kind == "motion-format"}
+        if read:  # only then: caches written without format options keep their keys
+            settings["formats"] = read
         digest = hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
         return [self.clip(path, target, source_map, digest) for path in self.files()]
 
@@ -117,7 +123,7 @@ class MocapDataset:
         """Read one take and retarget it onto the target at the dataset's frame rate."""
         from dance_core.motion.retarget import retarget
 
-        data = read_motion_file(path, get_registry())
+        data = read_motion_file(path, get_registry(), formats=self.formats)
         take = data.skeleton_motion
         if take is None or take.rotations is None:
             raise DataError(f"{path}: a mocap take needs joint rotations (a skeletal motion file)")
@@ -131,6 +137,8 @@ def _is_preset(spec: str) -> bool:
     return spec in PRESETS
 
 
-def build(config: Any, *, fps: float, root: str = ".", **_: Any) -> MocapDataset:
-    """Build the ``mocap`` dataset."""
-    return MocapDataset(config, fps, root)
+def build(
+    config: Any, *, fps: float, root: str = ".", formats: FormatOptions = DEFAULT_FORMATS, **_: Any
+) -> MocapDataset:
+    """Build the ``mocap`` dataset (takes read with the recipe's ``formats:`` options)."""
+    return MocapDataset(config, fps, root, formats)

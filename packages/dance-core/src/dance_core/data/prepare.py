@@ -21,7 +21,8 @@ def dataset_sources(recipe: Recipe) -> list[ClipSource]:
     encoded with the recipe's ``motion:`` representation (mirrored copies added with ``data.mirror``)."""
     if recipe.data is None:
         raise RecipeError(f"{recipe._origin}: data: required for training")
-    dataset = recipe.data.dataset.build(DatasetContext(fps=recipe.fps, seed=recipe.seed, root=recipe._dir))
+    context = DatasetContext(fps=recipe.fps, seed=recipe.seed, root=recipe._dir, formats=recipe.format_options)
+    dataset = recipe.data.dataset.build(context)
     sources = list(dataset.clips())
     if not sources:
         raise DataError(f"dataset {recipe.data.dataset.plugin!r} has no clips")
@@ -162,7 +163,7 @@ def to_clip(source: ClipSource, stack: FeatureStack, registry: Registry) -> Clip
         return Clip(source.name, values[:n], {k: v[:n] for k, v in streams.items()}, source.meta.get("song", ""))
     audio = source.audio
     if audio is None and source.audio_path is not None:
-        audio = load_audio(source.audio_path, registry)
+        audio = load_audio(source.audio_path, registry, stack.formats)
     if audio is not None:
         check_durations(source, len(values), audio.n_frames(stack.fps), stack.fps)
     n = len(values) if audio is None else min(len(values), audio.n_frames(stack.fps))
@@ -185,10 +186,14 @@ def cached_features(source: ClipSource, stack: FeatureStack, registry: Registry,
 
     cache = FeatureCache(folder)
     texts = [[t.text, t.start, t.end] for t in source.texts]
-    key = cache.key(source.audio_path, {"features": stack.signature, "fps": stack.fps, "texts": texts})
+    settings = {"features": stack.signature, "fps": stack.fps, "texts": texts}
+    readers = stack.reader_options()
+    if readers:  # only then: the keys of caches written without reader options stay as they were
+        settings["readers"] = readers
+    key = cache.key(source.audio_path, settings)
     streams = cache.get(key)
     if streams is None:
-        audio = load_audio(source.audio_path, registry)
+        audio = load_audio(source.audio_path, registry, stack.formats)
         streams = stack.extract(audio.n_frames(stack.fps), audio, source.texts)
         cache.put(key, streams)
     return streams

@@ -8,10 +8,11 @@ from typing import Any
 
 from pydantic import ValidationError
 
+from dance_core.contexts import FormatOptions
 from dance_core.errors import PluginError, RecipeError
-from dance_core.recipe.schema import Recipe
+from dance_core.recipe.schema import Recipe, resolve_paths
 from dance_core.recipe.yaml_source import Source, parse_file, parse_value
-from dance_core.registry import Registry, get_registry
+from dance_core.registry import Registry, get_registry, unknown_message
 
 MAX_EXTENDS = 16
 
@@ -165,9 +166,35 @@ def _component_problems(
         return [f"{smap.where(loc)}: {dotted(loc)}: {exc}"], entry, None
 
 
-def validate_components(recipe: Recipe, smap: SourceMap, registry: Registry) -> None:
-    """Validate every component's options with its plugin's config model."""
+#: the kinds a recipe's ``formats:`` gives options to
+FILE_KINDS = ("motion-format", "audio-reader")
+
+
+def _format_problems(
+    recipe: Recipe, smap: SourceMap, registry: Registry
+) -> tuple[list[str], dict[tuple[str, str], Any]]:
+    """(error lines, validated configs by (kind, name)) of the recipe's ``formats:``, paths resolved."""
     problems: list[str] = []
+    configs: dict[tuple[str, str], Any] = {}
+    for name, options in recipe.formats.items():
+        loc = ("formats", name)
+        kinds = [kind for kind in FILE_KINDS if name in registry.names(kind)]
+        if not kinds:
+            known = sorted({n for kind in FILE_KINDS for n in registry.names(kind)})
+            message = unknown_message("motion format or audio reader", name, known)
+            problems.append(f"{smap.where(loc)}: {dotted(loc)}: {message}")
+        for kind in kinds:
+            lines, _, config = _component_problems(kind, loc, name, options, smap, registry)
+            problems += lines
+            if not lines and config is not None:
+                configs[(kind, name)] = resolve_paths(config, smap.folder_of(loc) or recipe._dir)
+    return problems, configs
+
+
+def validate_components(recipe: Recipe, smap: SourceMap, registry: Registry) -> None:
+    """Validate every component's options with its plugin's config model, and the ``formats:`` options."""
+    problems, configs = _format_problems(recipe, smap, registry)
+    recipe._formats = FormatOptions(configs)
     for kind, loc, spec in recipe.components():
         lines, entry, config = _component_problems(kind, loc, spec.plugin, spec.options(), smap, registry)
         problems += lines

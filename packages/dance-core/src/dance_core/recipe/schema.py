@@ -249,8 +249,22 @@ class Recipe(Strict):
     data: DataSpec | None = None
     training: TrainingSpec = Field(default_factory=TrainingSpec)
     compose: ComposeSpec = Field(default_factory=ComposeSpec)
+    formats: dict[str, dict[str, Any]] = Field(
+        default_factory=dict,
+        description="options of motion formats and audio readers by name ({bvh: {up: z}}), used wherever this "
+        "recipe reads or writes a file by its suffix: its dataset's motion and songs, the seed motion, the songs "
+        "composed and compose.formats' outputs",
+    )
     _dir: str = PrivateAttr(default=".")
     _origin: str = PrivateAttr(default="<recipe>")
+    _formats: Any = PrivateAttr(default=None)
+
+    @property
+    def format_options(self) -> Any:
+        """The ``formats:`` options validated by each format's or reader's config (a ``FormatOptions``)."""
+        if self._formats is None:
+            raise RuntimeError("the recipe's formats have not been validated")
+        return self._formats
 
     def components(self) -> list[tuple[str, tuple[Any, ...], ComponentSpec]]:
         """Every component spec as (kind, location, spec)."""
