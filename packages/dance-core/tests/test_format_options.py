@@ -36,6 +36,10 @@ def test_options_are_validated_by_each_formats_config_with_file_and_line(tmp_pat
     assert lines[1] == f"{recipe}:4: formats.bvh.up: Input should be 'y' or 'z'"
 
 
+def test_a_recipe_without_formats_dumps_as_before():
+    assert "formats" not in load_recipe("core-synthetic").model_dump(mode="json")  # run ids and checkpoints unchanged
+
+
 def test_a_path_option_is_relative_to_the_recipe_that_wrote_it(tmp_path):
     (tmp_path / "r.yaml").write_text("extends: core-dance\nformats:\n  smpl: {model: models/SMPL.npz}\n")
     config = load_recipe(tmp_path / "r.yaml").format_options.config("motion-format", "smpl")

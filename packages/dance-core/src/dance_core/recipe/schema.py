@@ -14,6 +14,7 @@ from pydantic import (
     PositiveInt,
     PrivateAttr,
     field_validator,
+    model_serializer,
     model_validator,
 )
 
@@ -258,6 +259,14 @@ class Recipe(Strict):
     _dir: str = PrivateAttr(default=".")
     _origin: str = PrivateAttr(default="<recipe>")
     _formats: Any = PrivateAttr(default=None)
+
+    @model_serializer(mode="wrap")
+    def _without_empty_formats(self, handler: Any) -> Any:
+        """Dumps of recipes without ``formats:`` stay as they were (run ids, checkpoints, ``recipe show``)."""
+        data = handler(self)
+        if isinstance(data, dict) and not self.formats:
+            data.pop("formats", None)
+        return data
 
     @property
     def format_options(self) -> Any:
