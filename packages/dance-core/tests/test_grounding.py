@@ -15,8 +15,9 @@ REST = dance24().rest_positions()
 
 FPS = 20.0
 SOLE = GroundingOptions().sole
-#: root height with the lower toe joint ``SOLE`` above the floor, SMPL-24 at rest
-STAND = float(REST[0, 1] - REST[[10, 11], 1].min() + SOLE)
+#: root height standing at rest: dance24's rest pose has its toe tips (End Sites) on the floor, which
+#: grounding takes as the soles
+STAND = float(REST[0, 1])
 L_SHOULDER, R_SHOULDER, L_ELBOW, SPINE3, NECK = 16, 17, 18, 9, 12
 LEGS = {1, 2, 4, 5, 7, 8, 10, 11}  # hips, knees, ankles, toes
 UPPER = [j for j in range(24) if j not in LEGS and j != 0]
@@ -39,7 +40,7 @@ def dancer(seconds=4.0, lift=0.0):
 
 def soles(motion):
     """Per frame, the lower sole's height above the floor."""
-    return sole_heights(motion, motion.positions(), find_feet(motion.skeleton), SOLE).min(1)
+    return sole_heights(motion, motion.positions(end_sites=True), find_feet(motion.skeleton), SOLE).min(1)
 
 
 def horizontal_speed(motion, joint):
@@ -128,11 +129,48 @@ def test_units_other_than_metres():
     m = Motion(skel, FPS, root, np.tile([0.0, 0, 0, 1], (n, len(skel), 1)))
     out, report = ground(m)
     feet = find_feet(skel)
-    h = sole_heights(out, out.positions(), feet, 100 * SOLE).min(1)
+    h = sole_heights(out, out.positions(end_sites=True), feet, 100 * SOLE).min(1)
     np.testing.assert_allclose(h, 0.0, atol=0.1)
     rest = skel.rest_positions()
-    toe_below_root = rest[0, 1] - rest[feet[1], 1]  # 94 cm
-    assert report.mean_correction == pytest.approx(-(150.0 - toe_below_root - 100 * SOLE) / 100, abs=1e-4)
+    toe_below_root = rest[0, 1] - rest[feet[1], 1]  # 94 cm: the toe's End Site points forward, at its height
+    assert report.mean_correction == pytest.approx(-(150.0 - toe_below_root) / 100, abs=1e-4)
+
+
+def test_the_soles_are_the_rest_poses_lowest_points_and_pointed_toes_count():
+    """With End Sites the sole is where the rest foot touches the floor (no assumed toe height), the
+    toe tips count (a pointed foot is not pushed through the floor), and a rig without toe joints
+    (CMU's Daz-friendly conversion: an End Site under the ankle) is grounded through its End Sites."""
+    skel = dance24()
+    rest = np.tile([0.0, 0, 0, 1], (1, len(skel), 1))
+    m = Motion(skel, FPS, skel.offsets[:1], rest)
+    np.testing.assert_allclose(sole_heights(m, m.positions(end_sites=True), find_feet(skel), SOLE), 0.0, atol=1e-9)
+    pointed = rest.copy()
+    pointed[0, skel.index("L_Ankle")] = expmap_to_quat(np.array([1.0, 0.0, 0.0]))  # toes 57 degrees down
+    m = Motion(skel, FPS, skel.offsets[:1], pointed)
+    tips = m.positions(end_sites=True)[0, len(skel):, 1]
+    assert sole_heights(m, m.positions(end_sites=True), find_feet(skel), SOLE)[0, 0] == pytest.approx(tips.min())
+    from dance_core.motion.rig_maps import PRESETS
+
+    daz_names = {c: n[0].format() for c, n in PRESETS["cmu-daz"].items()}
+    keep = [j for j, n in enumerate(skel.names) if n in daz_names]
+    def kept_parent(j):
+        p = skel.parents[j]
+        while p >= 0 and p not in keep:
+            p = skel.parents[p]
+        return p
+
+    parents = [keep.index(kept_parent(j)) if j else -1 for j in keep]
+    rest_pos = skel.rest_positions()
+    offsets = np.array([rest_pos[j] - (rest_pos[kept_parent(j)] if j else 0) for j in keep])
+    ends = {keep.index(skel.index(f"{s}_Ankle")): rest_pos[skel.index(f"{s}_Foot")] - rest_pos[skel.index(f"{s}_Ankle")]
+            + [0, -0.0204, 0.06] for s in "LR"}
+    daz = Skeleton([daz_names[skel.names[j]] for j in keep], parents, offsets, end_sites=ends, name="daz")
+    feet = find_feet(daz)
+    assert feet == (daz.index("lFoot"), daz.index("lFoot"), daz.index("rFoot"), daz.index("rFoot"))
+    n = 40
+    root = np.tile(offsets[:1] + [0.0, 0.25, 0.0], (n, 1))  # 25 cm up
+    out, report = ground(Motion(daz, FPS, root, np.tile([0.0, 0, 0, 1], (n, len(daz), 1))))
+    assert not report.skipped and report.mean_correction == pytest.approx(-0.25, abs=1e-3)
 
 
 def test_two_bone_ik_reaches_and_bends_a_straight_limb_forwards():

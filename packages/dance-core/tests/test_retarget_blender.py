@@ -111,10 +111,7 @@ def test_blender_sees_every_frame_where_our_kinematics_puts_it(imported, name):
 @pytest.mark.parametrize("name", [
     "dance24",
     "mixamo",
-    pytest.param("back onto CMU", marks=pytest.mark.xfail(strict=True, reason=(
-        "grounding assumes every toe joint sits 3 cm above the sole (GroundingOptions.sole); the CMU rig's "
-        "ToeBase and its End Site are the lowest points of its rest pose, so the grounded figure floats "
-        "2-3 cm"))),
+    "back onto CMU",
 ])
 def test_the_retargeted_dancer_stands_on_blenders_floor(imported, name):
     """Median lowest point within 2 cm of Blender's floor (z = 0), in metres."""

@@ -35,7 +35,7 @@ from dance_core.evaluation.contact import FEET_BY_NAME
 from dance_core.motion.fk import forward_kinematics
 from dance_core.motion.ik import two_bone_ik
 from dance_core.motion.motion import Motion
-from dance_core.motion.rotations import quat_conj, quat_mul
+from dance_core.motion.rotations import quat_conj, quat_mul, quat_rotate
 from dance_core.motion.skeleton import Skeleton
 
 _UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
@@ -82,7 +82,9 @@ class GroundingReport:
 
 def find_feet(skeleton: Skeleton) -> tuple[int, int, int, int] | None:
     """Indices of (left ankle, left toe, right ankle, right toe), or None when the names are unknown:
-    the foot names the metrics know, else those of a built-in rig map (Unreal, ``mixamorig:``...)."""
+    the foot names the metrics know, else those of a built-in rig map (Unreal, ``mixamorig:``...). A rig
+    with no toe joint but an End Site under each ankle (CMU's Daz-friendly conversion) gives the ankle
+    as its own toe; its End Site then serves as the toe."""
     for names in FEET_BY_NAME:
         if all(n in skeleton.names for n in names):
             return tuple(skeleton.names.index(n) for n in names)  # type: ignore[return-value]
@@ -91,6 +93,10 @@ def find_feet(skeleton: Skeleton) -> tuple[int, int, int, int] | None:
     wanted = ("L_Ankle", "L_Foot", "R_Ankle", "R_Foot")
     for name, table in PRESETS.items():
         found = apply_map(skeleton, {k: table[k] for k in wanted if k in table}, name).joints
+        for side in "LR":
+            ankle = found.get(f"{side}_Ankle")
+            if f"{side}_Foot" not in found and ankle is not None and ankle in skeleton.end_sites:
+                found[f"{side}_Foot"] = ankle
         if all(k in found for k in wanted):
             return tuple(found[k] for k in wanted)  # type: ignore[return-value]
     return None
@@ -109,13 +115,41 @@ def metres_per_unit(skeleton: Skeleton, feet: tuple[int, int, int, int], options
     return options.reference_leg / max(leg, 1e-9)
 
 
+def foot_points(skeleton: Skeleton, ankle: int, toe: int, with_end_sites: bool = True) -> list[int]:
+    """Indices of one foot's points: its ankle and toe joints and, ``with_end_sites``, their End Sites,
+    numbered as in ``Motion.positions(end_sites=True)`` (joints first, then End Sites in key order)."""
+    points = [ankle] if toe == ankle else [ankle, toe]
+    if with_end_sites:
+        keys = sorted(skeleton.end_sites)
+        points += [len(skeleton) + keys.index(j) for j in (ankle, toe) if j in skeleton.end_sites]
+    return list(dict.fromkeys(points))
+
+
 def sole_heights(motion: Motion, positions: np.ndarray, feet: tuple[int, int, int, int], sole: float) -> np.ndarray:
-    """``(T, 2)`` heights of the left and right soles above ``y = 0`` (``sole`` in skeleton units)."""
-    rest = motion.skeleton.rest_positions()
+    """``(T, 2)`` heights of the left and right soles above ``y = 0``.
+
+    Each foot point (ankle, toe, and their End Sites when ``positions`` holds them, as
+    ``Motion.positions(end_sites=True)`` does) stands its rest height above the foot's lowest rest
+    point; the sole is the lowest of the points less those heights, so a flat foot, a foot on its
+    ball and a pointed toe all measure their lowest part. A foot whose End Sites are known has its
+    sole at that lowest rest point (the rest pose stands on the floor); without them the lowest joint
+    is taken to be ``sole`` (skeleton units) above it."""
+    skel = motion.skeleton
+    ends = positions.shape[1] > len(skel)
+    rest = skel.rest_positions()
+    if ends:
+        from dance_core.motion.fk import end_site_positions
+
+        keys = sorted(skel.end_sites)
+        tips = end_site_positions(skel, rest[None], np.tile([0.0, 0.0, 0.0, 1.0], (1, len(skel), 1)))[0]
+        rest = np.concatenate([rest, tips]) if keys else rest
     out = []
     for ankle, toe in (feet[:2], feet[2:]):
-        rise = max(0.0, rest[ankle, 1] - rest[toe, 1])
-        out.append(np.minimum(positions[:, toe, 1] - sole, positions[:, ankle, 1] - sole - rise))
+        points = foot_points(skel, ankle, toe, ends)
+        lowest = rest[points, 1].min()
+        known_sole = any(p >= len(skel) for p in points)
+        rise = rest[points, 1] - lowest
+        out.append((positions[:, points, 1] - rise).min(axis=1) - (0.0 if known_sole else sole))
     return np.stack(out, axis=1)
 
 
@@ -196,7 +230,10 @@ def pin_feet(motion: Motion, feet: tuple[int, int, int, int], contacts: np.ndarr
             continue
         target = pos[frames, ankle].copy()
         target[:, [0, 2]] += weight[frames, None] * (pinned[frames] - target[:, [0, 2]])
-        forward = pos[frames, toe] - pos[frames, ankle]
+        if toe != ankle:
+            forward = pos[frames, toe] - pos[frames, ankle]
+        else:  # no toe joint: the ankle's End Site points along the foot
+            forward = quat_rotate(world[frames, ankle], skel.end_sites.get(ankle, np.array([0.0, 0.0, 1.0])))
         forward[:, 1] = 0.0
         q_hip, q_knee = two_bone_ik(pos[frames, hip], pos[frames, knee], pos[frames, ankle], target, forward)
         hip_w = quat_mul(q_hip, world[frames, hip])
@@ -223,7 +260,7 @@ def ground(motion: Motion, options: GroundingOptions | None = None) -> tuple[Mot
         return motion, GroundingReport(skipped=True, note="a single frame")
     unit = metres_per_unit(motion.skeleton, feet, options)
     pos = motion.positions()
-    heights = sole_heights(motion, pos, feet, options.sole / unit)
+    heights = sole_heights(motion, motion.positions(end_sites=True), feet, options.sole / unit)
     speeds = foot_speeds(pos, feet, motion.fps)
     contacts = foot_contacts(heights, foot_speeds(pos, feet, motion.fps, vertical=True), motion.fps, options, unit)
     correction = vertical_correction(heights, contacts, motion.fps, options)
