@@ -138,6 +138,31 @@ def test_a_generated_component_passes_the_checks_and_trains(generated, tmp_path,
     assert result.steps == 10
 
 
+def test_a_generated_format_and_reader_load_and_take_a_recipes_options(generated, tmp_path):
+    import numpy as np
+
+    from dance_core.data.features import load_audio
+    from dance_core.data.files import read_motion_file
+    from dance_core.protocols import MotionData
+    from dance_core.recipe import load_recipe
+    from dance_core.testing import check_component
+
+    fmt, reader = generated("format"), generated("reader")
+    with registered_plugin(fmt, "myformat"), registered_plugin(reader, "myreader") as registry:
+        assert registry.get("motion-format", "myformat").info["suffixes"] == (".csv",)
+        check_component("motion-format", "myformat")
+        check_component("audio-reader", "myreader")
+        recipe = load_recipe("core-synthetic", ["formats.myformat.precision=2", "formats.myreader.rate=8000"])
+        options = recipe.format_options
+        options.build(registry.get("motion-format", "myformat")).write(
+            MotionData(np.array([[0.123456, 1.0]], np.float32), 30.0, ["a", "b"]), str(tmp_path / "m.csv"))
+        assert (tmp_path / "m.csv").read_text().splitlines()[2] == "0.12,1"
+        np.testing.assert_allclose(read_motion_file(tmp_path / "m.csv", registry).values, [[0.12, 1.0]])
+        (tmp_path / "song.pcm").write_bytes(np.zeros(16000, "<i2").tobytes())
+        assert load_audio(tmp_path / "song.pcm", registry).rate == 22050  # its default
+        assert load_audio(tmp_path / "song.pcm", registry, options).rate == 8000  # the recipe's
+
+
 def test_generated_code_is_lint_clean(tmp_path):
     if importlib.util.find_spec("ruff") is None:
         pytest.skip("ruff is not installed")

@@ -32,6 +32,9 @@ class Kind:
     summary: str  # one line: what the generated component does
     needs_torch: bool  # a model part (torch) or a numpy component
     recipe: bool = True  # whether an example recipe can swap it in
+    registered_as: str = ""  # its kind in the registry (dance_core.kinds) when not the same word
+    try_it: str = ""  # without an example recipe: a command that uses it ({name} filled in)
+    check: str = ""  # its check in dance_core.testing (check_<kind> when empty)
 
 
 KINDS: dict[str, Kind] = {
@@ -39,9 +42,22 @@ KINDS: dict[str, Kind] = {
     "encoder": Kind("encoder", "a GRU over a window of past motion and music, or over the whole song", True),
     "conditioner": Kind("conditioner", "a per-frame linear + GELU embedding of one feature stream", True),
     "feature": Kind("feature", "RMS loudness of the music in dB, optionally with its rise", False),
-    "metric": Kind("metric", "mean jerk of joint positions in m/s^3: lower is smoother", False, recipe=False),
+    "metric": Kind("metric", "mean jerk of joint positions in m/s^3: lower is smoother", False, recipe=False,
+                   try_it="dance evaluate --generated DIR --reference DIR --metrics {name}"),
     "dataset": Kind("dataset", "metronome songs with a dancer that sways and dips on the beat", False),
+    "format": Kind("motion_format", "motion as CSV text: a row per frame, a column per channel, the fps on top",
+                   False, recipe=False, registered_as="motion-format", check="component",
+                   try_it="dance compose default --music SONG --format {name} -o out"),
+    "reader": Kind("reader", "headerless PCM audio (.pcm, .raw) of a rate, channels and sample type given as options",
+                   False, recipe=False, registered_as="audio-reader", check="component",
+                   try_it="dance compose default --music SONG.pcm --set formats.{name}.rate=44100 -o out"),
 }
+
+
+def registry_kind(kind: str) -> str:
+    """The registry's name of a ``--kind`` (``format`` -> ``motion-format``)."""
+    return KINDS[kind].registered_as or kind
+
 
 #: lowercase words of letters and digits joined by '-' or '_', starting with a letter
 NAME = re.compile(r"[a-z][a-z0-9]*(?:[-_][a-z0-9]+)*")
@@ -61,7 +77,8 @@ def add_parser(subparsers) -> None:
         "of the kind, tests that run dance_core.testing's contract checks and train its example recipe.",
         epilog="examples:\n"
         "  dance plugin new myhead --kind head\n"
-        "  dance plugin new loudness --kind feature --out plugins",
+        "  dance plugin new loudness --kind feature --out plugins\n"
+        "  dance plugin new mocap-csv --kind format",
     )
     new.add_argument("name", help="component and plugin name: lowercase letters and digits, '-' or '_' between words")
     new.add_argument("--kind", required=True, choices=list(KINDS), help="the kind of component")
@@ -80,10 +97,11 @@ def run(args: argparse.Namespace) -> int:
     print(f"wrote {target}/ ({args.kind} {args.name!r}, {n_files} files); next:")
     print(f"  pip install -e {target}")
     print(f"  pytest {target}")
-    if KINDS[args.kind].recipe:
+    spec = KINDS[args.kind]
+    if spec.recipe:
         print(f"  dance train {args.name}-example --set training.steps=200")
     else:
-        print(f"  dance evaluate --generated DIR --reference DIR --metrics {args.name}")
+        print(f"  {spec.try_it.format(name=args.name)}")
     return 0
 
 
@@ -106,10 +124,10 @@ def check_name(name: str, kind: str) -> None:
             dist = ep.dist.metadata["name"] if ep.dist is not None else "?"
             raise DanceError(f"plugin name {name!r}: the installed plugin {name!r} ({dist}) has it; choose another")
     registry = get_registry()
-    if name in registry.names(kind):
-        entry = registry.get(kind, name)
+    if name in registry.names(registry_kind(kind)):
+        entry = registry.get(registry_kind(kind), name)
         raise DanceError(
-            f"plugin name {name!r}: {kind} {name!r} is already registered by plugin {entry.plugin!r} "
+            f"plugin name {name!r}: {entry.kind} {name!r} is already registered by plugin {entry.plugin!r} "
             f"({entry.distribution}); choose another name"
         )
 
@@ -142,8 +160,9 @@ def render(name: str, kind: str) -> dict[str, str]:
         "dist": f"dance-{name}",
         "cls": "".join(word.capitalize() for word in re.split(r"[-_]", name)),
         "kind": kind,
+        "listed": registry_kind(kind),
         "component": spec.component,
-        "check": kind,
+        "check": spec.check or kind,
         "summary": spec.summary,
         "recipe": f"{name}-example",
         "dependencies": ", ".join(f'"{dep}"' for dep in deps),
