@@ -86,3 +86,16 @@ def test_importing_dance_core_and_its_registry_loads_no_torch():
             "print(sorted(m for m in ('torch', 'matplotlib', 'librosa', 'madmom') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_the_stable_api_table_in_the_docs_is_generated_from_all():
+    import importlib.util
+
+    script = PACKAGES.parent / "scripts" / "api_table.py"
+    spec = importlib.util.spec_from_file_location("api_table", script)
+    api_table = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(api_table)
+    doc = api_table.DOC.read_text(encoding="utf-8")
+    assert api_table.with_table(doc) == doc, "the stable-API table is stale: run python scripts/api_table.py --write"
+    listed = {name.strip("`") for _, names in api_table.rows()[:-1] for name in names}
+    assert listed == set(dance_core.__all__)

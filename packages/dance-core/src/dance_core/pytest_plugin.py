@@ -19,6 +19,8 @@ from typing import Any
 
 import pytest
 
+__all__ = ["dance_plugin", "dance_registry"]
+
 
 @pytest.fixture
 def dance_registry() -> Iterator[Any]:
