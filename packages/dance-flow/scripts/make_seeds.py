@@ -1,5 +1,6 @@
 """Write the built-in motion seeds ("motion prompts") shipped with the recipes: 3-second BVH clips
-of the synthetic SMPL dancer (dataset seed 5, not the training songs), each inside one move.
+of the synthetic dancer on our default skeleton (``dance24``; dataset seed 5, not the training songs),
+each inside one move.
 
     .venv/bin/python packages/dance-flow/scripts/make_seeds.py
 """
