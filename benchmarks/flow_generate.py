@@ -21,7 +21,7 @@ import torch
 from dance_core.model import build_model
 from dance_core.recipe import load_recipe
 
-MOTION_DIM = 75  # synthetic SMPL dancer: root deltas + 24 expmaps (the paper's is 67-69)
+MOTION_DIM = 75  # synthetic dancer: root deltas + 24 expmaps (the paper's is 67-69)
 MUSIC_DIM = 83  # 80 mel + onset + 2 madmom downbeat activations
 
 

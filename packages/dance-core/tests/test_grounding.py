@@ -24,7 +24,7 @@ UPPER = [j for j in range(24) if j not in LEGS and j != 0]
 
 
 def dancer(seconds=4.0, lift=0.0):
-    """A standing SMPL-24 dancer waving its arms and nodding (feet still), root ``lift`` above standing."""
+    """A standing dance24 dancer waving its arms and nodding (feet still), root ``lift`` above standing."""
     n = int(seconds * FPS)
     t = np.arange(n) / FPS
     rot = np.zeros((n, 24, 3))

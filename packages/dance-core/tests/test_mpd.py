@@ -1,5 +1,5 @@
 """TM2D's Motion Prediction Distance with the motion-matching predictor: the body frame, evaluation
-points, and sanity on the synthetic SMPL dancer (real dances continue the way other real dances do;
+points, and sanity on the synthetic dancer (real dances continue the way other real dances do;
 a jump cut, a freeze or noise does not)."""
 
 import numpy as np
@@ -16,7 +16,7 @@ TIMES = (3.3, 7.1, 11.6)  # evaluation points (s) of the sanity tests
 
 
 def smpl_clip(index: int, seconds: float = 16.0) -> JointClip:
-    """One synthetic SMPL-24 dance (metres, Y up) with its move labels as text spans."""
+    """One synthetic dance (SMPL-24 joints, metres, Y up) with its move labels as text spans."""
     src = make_clip(index, seed=5, seconds=seconds, bpm=(90.0, 130.0), rate=4000, fps=FPS)
     motion = src.motion.skeleton_motion
     texts = [(t.start, t.end, t.text) for t in src.texts]

@@ -193,7 +193,7 @@ def _synth_parser(sub) -> None:
     )
     p.add_argument("out", nargs="?", metavar="FILE.wav", help="click-track WAV file to write")
     p.add_argument("--out", dest="out_dir", metavar="DIR",
-                   help="write a dataset instead: songs with a beat-locked SMPL dancer (WAV, BVH, beats, labels)")
+                   help="write a dataset instead: songs with a beat-locked dancer (WAV, BVH, beats, labels)")
     p.add_argument("--songs", type=bounded_number(int, 1, 100_000), default=10, help="dataset songs, 1-100000")
     p.add_argument("--music", nargs="+", metavar="SONG",
                    help="with --out: choreograph the dancer to these songs (files or folders) instead")

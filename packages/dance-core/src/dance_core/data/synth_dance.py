@@ -1,4 +1,4 @@
-"""A beat-locked dancer on the SMPL-24 skeleton: moves chosen per bar, with timed text labels.
+"""A beat-locked dancer on ``dance24`` (SMPL-24 joints): moves chosen per bar, with timed text labels.
 
 Every move is a pose function of musical time (a :class:`~dance_core.data.beat_grid.BeatGrid`:
 beats since the first downbeat, on even or uneven beats, in bars of 2-7 beats): joint rotations as

@@ -1,4 +1,4 @@
-"""The ``synthetic-dance`` dataset and ``dance synth``: songs with a beat-locked SMPL dancer.
+"""The ``synthetic-dance`` dataset and ``dance synth``: songs with a beat-locked dancer (on ``dance24``).
 
 Deterministic from the seed: song ``i`` draws its music from ``(seed, i)``, the order of its dancers
 from ``(seed, i, 2)`` and dance ``k`` of it its moves and style from ``(seed, i, 1, k)``, so the same

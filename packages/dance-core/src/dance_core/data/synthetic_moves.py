@@ -1,4 +1,4 @@
-"""The ``synthetic-moves`` dataset: text-motion clips of the synthetic SMPL dancer, one move each, no music.
+"""The ``synthetic-moves`` dataset: text-motion clips of the synthetic dancer, one move each, no music.
 
 TM2D trains its text branch on a text-motion corpus (HumanML3D in the paper: motions of 2-10 s, each
 with several descriptions and no music), disjoint from its music-dance pairs. This is that corpus for

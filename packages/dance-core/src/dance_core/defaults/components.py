@@ -55,4 +55,4 @@ def register_recipes(register):
     register("core-synthetic", None, str(RECIPES / "core-synthetic.yaml"),
              "window-mlp + regression head on synthetic beats; trains on CPU in seconds")
     register("core-dance", None, str(RECIPES / "core-dance.yaml"),
-             "window-mlp + regression head on the synthetic SMPL dancer; writes BVH")
+             "window-mlp + regression head on the synthetic dancer; writes BVH")
