@@ -50,7 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from dance_core.formats.bvh import BvhFormat
-from dance_core.motion.grounding import GroundingOptions, foot_contacts, foot_speeds
+from dance_core.motion.grounding import GroundingOptions, find_feet, foot_contacts, foot_speeds, sole_heights
 from dance_core.motion.motion import Motion
 from dance_core.motion.retarget import RigFrames, retarget, rig_frames
 from dance_core.motion.rig_maps import renamed
@@ -177,13 +177,10 @@ def foot_measures(p: Played) -> dict:
     opts = GroundingOptions()
     feet, points = p.feet()
     unit, fps = p.unit(), p.motion.fps
-    rest = rest_with_ends(p.motion.skeleton)
-    heights = []
-    for ankle, toe in (feet[:2], feet[2:]):  # the sole as grounding puts it: toe joint less `sole`, ankle less its rise
-        rise = max(0.0, rest[ankle, 1] - rest[toe, 1])
-        sole = opts.sole / unit
-        heights.append(np.minimum(p.pos[:, toe, 1] - sole, p.pos[:, ankle, 1] - sole - rise))
-    heights = np.stack(heights, axis=1)
+    # the soles as grounding measures them (its own function: foot points with End Sites, each less its
+    # rest height above the foot's lowest rest point)
+    joints = find_feet(p.motion.skeleton)
+    heights = sole_heights(p.motion, p.pos, joints, opts.sole / unit)
     contacts = foot_contacts(heights, foot_speeds(p.pos, feet, fps, vertical=True), fps, opts, unit)
     speeds = foot_speeds(p.pos, feet, fps) / p.rig.leg  # leg lengths per second
     skate = float(speeds[contacts].mean()) if contacts.any() else float("nan")
