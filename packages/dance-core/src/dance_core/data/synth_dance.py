@@ -73,9 +73,10 @@ SECTION_WEIGHTS = {
 }
 (PELVIS, L_HIP, R_HIP, SPINE1, L_KNEE, R_KNEE, SPINE2, L_ANKLE, R_ANKLE, SPINE3, L_FOOT, R_FOOT, NECK,
  L_COLLAR, R_COLLAR, HEAD, L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_WRIST, R_WRIST, L_HAND, R_HAND) = range(24)
-#: root height when standing: the pelvis above the lowest foot joint, plus the foot's thickness
 _REST = dance24().rest_positions()
-STAND = float(_REST[0, 1] - _REST[[10, 11], 1].min() + 0.03)
+#: root height when standing: dance24's rest pose stands on the floor (its toe tips at y = 0; the ball
+#: joints 2 cm up, the sole below them)
+STAND = float(_REST[0, 1])
 THIGH = float(np.linalg.norm(_REST[4] - _REST[1]))
 
 
