@@ -10,6 +10,7 @@ Names match exactly after a namespace prefix (``mixamorig:``, ``Armature|``) is 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -90,14 +91,16 @@ class RigMap:
         return self.joints.get(canonical)
 
 
-def _lookup(skeleton: Skeleton) -> tuple[dict[str, int], dict[str, int]]:
-    exact = {bare(n): j for j, n in enumerate(skeleton.names)}
-    folded = {bare(n).lower(): j for j, n in enumerate(skeleton.names)}
+def _lookup(skeleton: Skeleton | Sequence[str]) -> tuple[dict[str, int], dict[str, int]]:
+    names = skeleton.names if isinstance(skeleton, Skeleton) else list(skeleton)
+    exact = {bare(n): j for j, n in enumerate(names)}
+    folded = {bare(n).lower(): j for j, n in enumerate(names)}
     return exact, folded
 
 
-def apply_map(skeleton: Skeleton, table: dict[str, tuple[str, ...]], name: str) -> RigMap:
-    """A name table (canonical -> candidate rig names) resolved on a skeleton; absent joints are left out."""
+def apply_map(skeleton: Skeleton | Sequence[str], table: dict[str, tuple[str, ...]], name: str) -> RigMap:
+    """A name table (canonical -> candidate rig names) resolved on a skeleton (or a list of joint
+    names); absent joints are left out."""
     exact, folded = _lookup(skeleton)
     joints = {}
     for canonical, candidates in table.items():
@@ -109,13 +112,14 @@ def apply_map(skeleton: Skeleton, table: dict[str, tuple[str, ...]], name: str) 
     return RigMap(name, joints)
 
 
-def detect_map(skeleton: Skeleton, where: str = "") -> RigMap:
-    """The built-in map that covers the most of the skeleton's required joints; a one-line error naming
-    the missing joints and the presets when none covers them all."""
+def detect_map(skeleton: Skeleton | Sequence[str], where: str = "") -> RigMap:
+    """The built-in map that covers the most of the skeleton's (or joint-name list's) required joints;
+    a one-line error naming the missing joints and the presets when none covers them all."""
     maps = [apply_map(skeleton, table, name) for name, table in PRESETS.items()]
     best = min(maps, key=lambda m: (len(m.missing()), -len(m.joints)))
     if best.missing():
-        raise DataError(f"{where or skeleton.name}: cannot map the rig's joints onto a body: closest preset "
+        label = where or getattr(skeleton, "name", "joints")
+        raise DataError(f"{label}: cannot map the rig's joints onto a body: closest preset "
                         f"{best.name!r} lacks {', '.join(best.missing())} (presets: {', '.join(PRESETS)}; "
                         "or give a YAML joint map)")
     return best
