@@ -50,7 +50,7 @@ def main() -> None:
             timed("BVH write cmu_01_01", lambda: fmt.write_motion(motion, tmp / "cmu.bvh"))
             timed("forward kinematics, 2752 frames", motion.positions)
         clip = make_clip(0, seed=0, seconds=30.0, bpm=(80.0, 140.0), rate=22050, fps=20.0)
-        from dance_core.components.wav import write_wav
+        from dance_core.formats.wav import write_wav
 
         write_wav(tmp / "song.wav", clip.audio.samples, clip.audio.rate)
         dance = clip.motion.skeleton_motion

@@ -19,7 +19,7 @@ def test_soundfile_reader_wins_over_core_wav(registry, audio_dir):
 
 
 def test_wav_matches_core_reader(audio_dir, sample):
-    from dance_core.components.wav import WavReader
+    from dance_core.formats.wav import WavReader
 
     core = WavReader().read(audio_dir / "sample.wav")
     assert sample.rate == core.rate == 44100

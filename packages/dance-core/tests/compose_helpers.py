@@ -11,7 +11,7 @@ from dance_core import hookimpl
 from dance_core.components.configs import RegressionHeadConfig
 from dance_core.components.modules import RegressionHead
 from dance_core.components.synthetic import click_track
-from dance_core.components.wav import write_wav
+from dance_core.formats.wav import write_wav
 
 
 def click_song(path: Path, seconds: float, bpm: float = 120.0, rate: int = 16000) -> str:

@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 
 from dance_core.errors import DataError
 from dance_core.formats.bvh import BvhFormat, build, motion_to_bvh_text, written_end_sites
-from dance_core.motion.configs import BvhFormatConfig
+from dance_core.formats.configs import BvhFormatConfig
 from dance_core.motion.motion import Motion
 from dance_core.motion.skeleton import Skeleton
 from dance_core.motion.skeletons import dance24, transflower21

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from dance_core.components.synthetic import click_track
-from dance_core.components.wav import write_wav
 from dance_core.compose import compose
 from dance_core.errors import CheckpointError, DataError, RecipeError
+from dance_core.formats.wav import write_wav
 from dance_core.train import train
 
 
@@ -106,7 +106,7 @@ def test_compose_needs_a_matching_checkpoint(tiny_recipe, checkpoint, tmp_path):
 
 
 def test_seed_motion_file(tiny_recipe, checkpoint, tmp_path):
-    from dance_core.components.npz import NpzFormat
+    from dance_core.formats.npz import NpzFormat
     from dance_core.protocols import MotionData
 
     s = song(tmp_path / "s.wav", 2.0)

@@ -5,12 +5,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dance_core.components.wav import write_wav
 from dance_core.data.features import FeatureStack
 from dance_core.data.prepare import dataset_sources, to_clip
 from dance_core.data.synthetic_dance import make_clip, write_dataset
 from dance_core.errors import DataError
 from dance_core.formats.smpl import SmplFormat
+from dance_core.formats.wav import write_wav
 from dance_core.recipe import load_recipe
 from dance_core.registry import get_registry
 

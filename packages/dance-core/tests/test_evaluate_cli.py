@@ -8,9 +8,9 @@ import pytest
 
 from dance_core.cli.main import main
 from dance_core.components.configs import SyntheticBeatsConfig
-from dance_core.components.npz import NpzFormat
 from dance_core.components.synthetic import SyntheticBeats
-from dance_core.components.wav import write_wav
+from dance_core.formats.npz import NpzFormat
+from dance_core.formats.wav import write_wav
 from dance_core.protocols import MotionData
 
 

@@ -19,7 +19,7 @@ import time
 import numpy as np
 import pytest
 
-from dance_core.components.wav import write_wav
+from dance_core.formats.wav import write_wav
 from dance_core.motion.skeletons import dance24
 from dance_core.render.frames import CENTER, LEFT, RIGHT
 from dance_core.render.html import write_html

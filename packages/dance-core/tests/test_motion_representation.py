@@ -82,7 +82,7 @@ def test_checkpoint_stores_the_representation_and_skeleton(run):
 def test_compose_writes_bvh_that_decodes_the_generated_features(run, tmp_path):
     recipe, result = run
     clip = make_clip(0, seed=5, seconds=4.0, bpm=(100, 100), rate=16000, fps=20.0)
-    from dance_core.components.wav import write_wav
+    from dance_core.formats.wav import write_wav
 
     write_wav(tmp_path / "song.wav", clip.audio.samples, clip.audio.rate)
     recipe = load_recipe("core-dance", [*TINY, "compose.formats=[bvh, npz, html]"])

@@ -153,11 +153,11 @@ def test_compose_writes_text_sidecars_that_evaluate_scores_at_text_starts(tmp_pa
     pytest.importorskip("dance_audio")
     from dance_core.components.configs import SyntheticBeatsConfig
     from dance_core.components.synthetic import SyntheticBeats, click_track
-    from dance_core.components.wav import write_wav
     from dance_core.compose import compose
     from dance_core.data.files import read_texts
     from dance_core.evaluation.loading import load_clips
     from dance_core.evaluation.report import evaluate
+    from dance_core.formats.wav import write_wav
     from dance_core.recipe import load_recipe
     from dance_core.recipe.schema import TextSpec
     from dance_core.registry import get_registry

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from dance_core.cli.main import main
-from dance_core.components.wav import write_wav
 from dance_core.data.synthetic_dance import make_clip
 from dance_core.errors import DataError
 from dance_core.formats.bvh import BvhFormat
+from dance_core.formats.wav import write_wav
 from dance_core.render.preview import render
 
 

@@ -12,13 +12,13 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from dance_core.cli.main import main
-from dance_core.components.wav import write_wav
 from dance_core.data.files import read_motion_file
 from dance_core.errors import DataError
+from dance_core.formats.configs import SmplFormatConfig
 from dance_core.formats.smpl import SmplFormat
 from dance_core.formats.smpl_model import ENV_MODEL, load_body_model
 from dance_core.formats.unpickle import safe_load
-from dance_core.motion.configs import SmplFormatConfig
+from dance_core.formats.wav import write_wav
 from dance_core.motion.skeletons import SMPL_PARENTS
 from dance_core.recipe.schema import resolve_paths
 from dance_core.registry import get_registry

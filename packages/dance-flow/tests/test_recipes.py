@@ -115,7 +115,7 @@ def test_aichoreographer_uses_cores_regression_head():
 def demo_song(tmp_path):
     """A 3-second synthesized song."""
     from dance_core.components.synthetic import click_track
-    from dance_core.components.wav import write_wav
+    from dance_core.formats.wav import write_wav
 
     rate = 16000
     audio = click_track(np.arange(0.1, 3.0, 0.5), 3.0, rate, np.random.default_rng(0))

@@ -5,8 +5,8 @@ import pytest
 import torch
 
 from dance_core.components.synthetic import click_track
-from dance_core.components.wav import write_wav
 from dance_core.compose import compose
+from dance_core.formats.wav import write_wav
 from dance_core.recipe import load_recipe
 from dance_core.registry import get_registry
 from dance_core.train import Trainer

@@ -4,7 +4,7 @@ import numpy as np
 
 from dance_core.cli.main import main
 from dance_core.components.synthetic import click_track
-from dance_core.components.wav import write_wav
+from dance_core.formats.wav import write_wav
 
 
 def test_bundled_tm2d_small_dances_to_a_song_with_a_text_span(tmp_path, monkeypatch):

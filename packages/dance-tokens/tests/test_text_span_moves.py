@@ -5,10 +5,10 @@ import numpy as np
 
 from dance_core.cli.main import main
 from dance_core.components.synthetic import click_track
-from dance_core.components.wav import write_wav
 from dance_core.data.files import read_motion_file
 from dance_core.evaluation.loading import joint_positions
 from dance_core.evaluation.move_detect import detect, move_share
+from dance_core.formats.wav import write_wav
 from dance_core.registry import get_registry
 
 SECONDS, START, END = 20.0, 6.0, 14.0  # the span; its ramps take 20 % at either end

@@ -323,7 +323,7 @@ def synth(args: Namespace) -> int:
     import numpy as np
 
     from dance_core.components.synthetic import click_track
-    from dance_core.components.wav import write_wav
+    from dance_core.formats.wav import write_wav
 
     beats = np.arange(0.0, seconds, 60.0 / args.bpm)
     audio = click_track(beats, seconds, args.rate, np.random.default_rng(args.seed))

@@ -47,16 +47,6 @@ class EnergyConfig(ComponentConfig):
     log_floor: PositiveFloat = 1e-6
 
 
-class WavReaderConfig(ComponentConfig):
-    """No options."""
-
-
-class NpzFormatConfig(ComponentConfig):
-    """Compression on or off."""
-
-    compress: bool = True
-
-
 class SyntheticBeatsConfig(ComponentConfig):
     """How many songs, how long, their tempi, and the dancer's size."""
 

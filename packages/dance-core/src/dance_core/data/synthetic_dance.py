@@ -125,8 +125,8 @@ def write_clip(out: Path, clip: ClipSource) -> list[Path]:
     sentence) and ``name.sections`` (start, end, section; tempo, style and any dancer but the classic one
     in a comment) into ``out``."""
     from dance_core.atomic import write_text
-    from dance_core.components.wav import write_wav
     from dance_core.formats.bvh import BvhFormat
+    from dance_core.formats.wav import write_wav
 
     out.mkdir(parents=True, exist_ok=True)
     base = out / clip.name

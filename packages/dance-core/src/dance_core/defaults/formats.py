@@ -3,7 +3,7 @@ plus motion representations (skeletal motion to model features and back)."""
 
 from __future__ import annotations
 
-from dance_core.components import configs as c
+from dance_core.formats import configs as fc
 from dance_core.hookspecs import hookimpl
 from dance_core.motion import configs as mc
 
@@ -13,23 +13,23 @@ _F = "dance_core.formats"
 @hookimpl
 def register_audio_readers(register):
     """Core's WAV reader."""
-    register("wav", c.WavReaderConfig, "dance_core.components.wav:build", "PCM and float WAV files",
+    register("wav", fc.WavReaderConfig, f"{_F}.wav:build", "PCM and float WAV files",
              suffixes=(".wav", ".wave"))
 
 
 @hookimpl
 def register_motion_formats(register):
     """Core's readable and writable motion formats."""
-    register("npz", c.NpzFormatConfig, "dance_core.components.npz:build", "frame array, fps and channel names",
+    register("npz", fc.NpzFormatConfig, f"{_F}.npz:build", "frame array, fps and channel names",
              suffixes=(".npz",))
-    register("bvh", mc.BvhFormatConfig, f"{_F}.bvh:build",
+    register("bvh", fc.BvhFormatConfig, f"{_F}.bvh:build",
              "BVH mocap: any channel order, End Sites, continuous Euler", suffixes=(".bvh",))
-    register("smpl", mc.SmplFormatConfig, f"{_F}.smpl:build",
+    register("smpl", fc.SmplFormatConfig, f"{_F}.smpl:build",
              "AIST++ SMPL pickles (smpl_poses, smpl_trans) on your SMPL model's joints (model, --smpl-model), "
              "restricted unpickler", suffixes=(".pkl",))
-    register("joints", mc.JointsFormatConfig, f"{_F}.joints:build",
+    register("joints", fc.JointsFormatConfig, f"{_F}.joints:build",
              "HumanML3D new_joints arrays (T, 22, 3)", suffixes=(".npy",))
-    register("keypoints", mc.KeypointsFormatConfig, f"{_F}.keypoints:build",
+    register("keypoints", fc.KeypointsFormatConfig, f"{_F}.keypoints:build",
              "2D OpenPose BODY_25 keypoints as JSON (ours or DanceRevolution's dance_array)", suffixes=(".json",))
 
 

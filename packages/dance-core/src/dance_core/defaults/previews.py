@@ -3,8 +3,8 @@
 
 from __future__ import annotations
 
+from dance_core.formats import configs as fc
 from dance_core.hookspecs import hookimpl
-from dance_core.motion import configs as mc
 
 
 @hookimpl
@@ -12,7 +12,7 @@ def register_motion_formats(register):
     """Write-only preview formats (``write_only=True``: never chosen to read a file)."""
     for kind, what, build in (("gif", "animated GIF", "build_gif"), ("mp4", "MP4 video with the song", "build_mp4"),
                               ("html", "offline HTML player", "build")):
-        register(kind, mc.PreviewFormatConfig, f"dance_core.render.preview:{build}",
+        register(kind, fc.PreviewFormatConfig, f"dance_core.render.preview:{build}",
                  f"stick-figure preview: {what} (write only)", suffixes=(f".{kind}",), write_only=True)
 
 
