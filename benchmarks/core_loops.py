@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from dance_core.components.synthetic import click_track
 from dance_core.compose import compose
+from dance_core.data.synthetic_beats import click_track
 from dance_core.formats.wav import write_wav
 from dance_core.recipe import load_recipe
 from dance_core.train import Trainer

@@ -10,7 +10,7 @@ import torch
 from dance_core import hookimpl
 from dance_core.components.configs import RegressionHeadConfig
 from dance_core.components.modules import RegressionHead
-from dance_core.components.synthetic import click_track
+from dance_core.data.synthetic_beats import click_track
 from dance_core.formats.wav import write_wav
 
 

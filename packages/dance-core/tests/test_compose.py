@@ -4,8 +4,8 @@ import re
 import numpy as np
 import pytest
 
-from dance_core.components.synthetic import click_track
 from dance_core.compose import compose
+from dance_core.data.synthetic_beats import click_track
 from dance_core.errors import CheckpointError, DataError, RecipeError
 from dance_core.formats.wav import write_wav
 from dance_core.train import train

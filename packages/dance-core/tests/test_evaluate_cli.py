@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from dance_core.cli.main import main
-from dance_core.components.configs import SyntheticBeatsConfig
-from dance_core.components.synthetic import SyntheticBeats
+from dance_core.data.dataset_configs import SyntheticBeatsConfig
+from dance_core.data.synthetic_beats import SyntheticBeats
 from dance_core.formats.npz import NpzFormat
 from dance_core.formats.wav import write_wav
 from dance_core.protocols import MotionData
@@ -123,7 +123,7 @@ def test_evaluate_reference_against_itself_and_audio_beats(synthetic_set):
 
 
 def test_onset_fallback_finds_click_track_beats():
-    from dance_core.components.synthetic import click_track
+    from dance_core.data.synthetic_beats import click_track
     from dance_core.evaluation.music import onset_envelope, onset_peaks
     from dance_core.media import Audio
 

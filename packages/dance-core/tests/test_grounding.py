@@ -186,7 +186,7 @@ def test_two_bone_ik_reaches_and_bends_a_straight_limb_forwards():
 @pytest.fixture(scope="module")
 def floating_checkpoint(tmp_path_factory):
     """A tiny core-dance model trained on dancers that float 30 cm above the floor."""
-    from dance_core.components.synthetic import click_track
+    from dance_core.data.synthetic_beats import click_track
     from dance_core.formats.bvh import BvhFormat
     from dance_core.formats.wav import write_wav
     from dance_core.recipe import load_recipe

@@ -8,7 +8,7 @@ from dance_core.atomic import atomic_path, write_text
 from dance_core.components.configs import CosineConfig, MultiStepConfig
 from dance_core.components.energy import EnergyFeatures
 from dance_core.components.schedules import build_cosine, build_multistep
-from dance_core.components.synthetic import click_track
+from dance_core.data.synthetic_beats import click_track
 from dance_core.errors import DataError
 from dance_core.formats.wav import WavReader, write_wav
 from dance_core.media import Audio, FeatureInputs, frame_count

@@ -151,10 +151,10 @@ def test_points_at_text_starts_else_regularly_with_notes(dances):
 
 def test_compose_writes_text_sidecars_that_evaluate_scores_at_text_starts(tmp_path):
     pytest.importorskip("dance_audio")
-    from dance_core.components.configs import SyntheticBeatsConfig
-    from dance_core.components.synthetic import SyntheticBeats, click_track
     from dance_core.compose import compose
+    from dance_core.data.dataset_configs import SyntheticBeatsConfig
     from dance_core.data.files import read_texts
+    from dance_core.data.synthetic_beats import SyntheticBeats, click_track
     from dance_core.evaluation.loading import load_clips
     from dance_core.evaluation.report import evaluate
     from dance_core.formats.wav import write_wav

@@ -28,8 +28,8 @@ import torch
 from dance_core import hookimpl
 from dance_core.atomic import OutputSet, atomic_path, output_mode, sweep_stale_temps
 from dance_core.checkpoint import load_checkpoint
-from dance_core.components.synthetic import click_track
 from dance_core.compose import compose
+from dance_core.data.synthetic_beats import click_track
 from dance_core.errors import CheckpointError, DanceError, DataError
 from dance_core.formats.npz import NpzFormat
 from dance_core.formats.wav import write_wav

@@ -114,7 +114,7 @@ def test_aichoreographer_uses_cores_regression_head():
 @pytest.fixture
 def demo_song(tmp_path):
     """A 3-second synthesized song."""
-    from dance_core.components.synthetic import click_track
+    from dance_core.data.synthetic_beats import click_track
     from dance_core.formats.wav import write_wav
 
     rate = 16000

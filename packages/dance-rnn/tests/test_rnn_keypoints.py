@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from dance_core.components.synthetic import click_track
 from dance_core.compose import compose
+from dance_core.data.synthetic_beats import click_track
 from dance_core.formats.wav import write_wav
 from dance_core.motion.skeletons import BODY25_ORDER
 from dance_core.recipe import load_recipe

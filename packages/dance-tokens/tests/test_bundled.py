@@ -3,7 +3,7 @@
 import numpy as np
 
 from dance_core.cli.main import main
-from dance_core.components.synthetic import click_track
+from dance_core.data.synthetic_beats import click_track
 from dance_core.formats.wav import write_wav
 
 

@@ -4,8 +4,8 @@ music after it: judged by kinematic move detectors that share no code with the m
 import numpy as np
 
 from dance_core.cli.main import main
-from dance_core.components.synthetic import click_track
 from dance_core.data.files import read_motion_file
+from dance_core.data.synthetic_beats import click_track
 from dance_core.evaluation.loading import joint_positions
 from dance_core.evaluation.move_detect import detect, move_share
 from dance_core.formats.wav import write_wav

@@ -322,7 +322,7 @@ def synth(args: Namespace) -> int:
 
     import numpy as np
 
-    from dance_core.components.synthetic import click_track
+    from dance_core.data.synthetic_beats import click_track
     from dance_core.formats.wav import write_wav
 
     beats = np.arange(0.0, seconds, 60.0 / args.bpm)

@@ -47,17 +47,6 @@ class EnergyConfig(ComponentConfig):
     log_floor: PositiveFloat = 1e-6
 
 
-class SyntheticBeatsConfig(ComponentConfig):
-    """How many songs, how long, their tempi, and the dancer's size."""
-
-    songs: PositiveInt = 12
-    seconds: PositiveFloat = 12.0
-    bpm: tuple[PositiveFloat, PositiveFloat] = (90.0, 140.0)
-    sample_rate: PositiveInt = 16000
-    joints: PositiveInt = 6
-    seed: int = 0
-
-
 class ConstantConfig(ComponentConfig):
     """The value."""
 

@@ -1,4 +1,4 @@
-"""Pydantic configs of the motion datasets (light: registering them imports no heavy module)."""
+"""Pydantic configs of the datasets (light: registering them imports no heavy module)."""
 
 from __future__ import annotations
 
@@ -7,6 +7,17 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, PositiveInt, ValidationError, field_validator
 
 from dance_core.config import ComponentConfig
+
+
+class SyntheticBeatsConfig(ComponentConfig):
+    """How many songs, how long, their tempi, and the dancer's size."""
+
+    songs: PositiveInt = 12
+    seconds: PositiveFloat = 12.0
+    bpm: tuple[PositiveFloat, PositiveFloat] = (90.0, 140.0)
+    sample_rate: PositiveInt = 16000
+    joints: PositiveInt = 6
+    seed: int = 0
 
 
 class SyntheticDanceConfig(ComponentConfig):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dance_core.components import configs as c
 from dance_core.data import dataset_configs as dc
 from dance_core.hookspecs import hookimpl
 
@@ -10,7 +9,7 @@ from dance_core.hookspecs import hookimpl
 @hookimpl
 def register_datasets(register):
     """Core's synthetic and folder datasets."""
-    register("synthetic-beats", c.SyntheticBeatsConfig, "dance_core.components.synthetic:build",
+    register("synthetic-beats", dc.SyntheticBeatsConfig, "dance_core.data.synthetic_beats:build",
              "click-track music with known beats and a beat-locked dancer")
     register("synthetic-dance", dc.SyntheticDanceConfig, "dance_core.data.synthetic_dance:build",
              "synthesized songs (drums, bass, chords) with a beat-locked dancer (dance24) and move labels")

@@ -1,4 +1,4 @@
-"""Synthetic choreography for core: click-track music with known beats and a beat-locked dancer.
+"""The ``synthetic-beats`` dataset: click-track music with known beats and a beat-locked dancer.
 
 Each song has a tempo, a start phase and a random sequence of moves, one per bar of four beats.
 Every joint oscillates around its rest position with the beat phase, so the motion is a function
