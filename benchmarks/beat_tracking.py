@@ -4,7 +4,7 @@ and the fixture songs against madmom's tracker.
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/beat_tracking.py [--songs 40] [--seed 3000]
         [--seconds 30] [--trackers flux librosa] [--music SONG ...] [--readme]
 
-**Synthesized songs** (``dance_core.data.synth_music.synthesize``): song ``k`` draws from
+**Synthesized songs** (``dance_core.synth.music.synthesize``): song ``k`` draws from
 ``numpy.random.default_rng(seed + k)`` a mean tempo of 70-180 BPM and a tempo drift of 2-8 %
 (smooth, over tens of beats), everything else (groove, 3/4 or 4/4, swing, instruments, noise) as
 the synthesizer draws it; the reference is the song's true beats. **Fixture songs**
@@ -98,7 +98,7 @@ def score(times: np.ndarray, reference: np.ndarray, downbeats: np.ndarray, ref_d
 def synth_songs(n: int, seed: int, seconds: float):
     """``(name, Audio, true beats, true downbeats, label)`` of ``n`` synthesized songs with tempo drift."""
     from dance_core import Audio
-    from dance_core.data.synth_music import synthesize
+    from dance_core.synth.music import synthesize
 
     for k in range(n):
         rng = np.random.default_rng(seed + k)

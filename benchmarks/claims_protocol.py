@@ -94,7 +94,7 @@ class Protocol:
 
 def source(index: int, seconds: float, homogeneous: bool = False):
     """Clip ``index`` (song ``index // 3``, dance ``index % 3``) of the protocol's generator."""
-    from dance_core.data.synthetic_dance import make_clip
+    from dance_core.synth.synthetic_dance import make_clip
 
     return make_clip(index, seed=0, seconds=seconds, bpm=BPM, rate=22050, fps=FPS, dances_per_song=DANCES,
                      tracker="librosa", dancers=None, homogeneous=homogeneous)
@@ -124,7 +124,7 @@ class TestSet:
 
     def __init__(self, protocol: Protocol, seconds: float, songs: int, homogeneous: bool = False, tag: str = "test",
                  dances: int = DANCES):
-        from dance_core.data.synthetic_dance import write_clip
+        from dance_core.synth.synthetic_dance import write_clip
 
         self.seconds, self.homogeneous = seconds, homogeneous
         first = TRAIN_SONGS * DANCES

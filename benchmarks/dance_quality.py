@@ -177,7 +177,7 @@ def write_time(folder: Path, stem: str, wall: float, cpu: float) -> None:
 
 def reference_dances(n: int, fps: float) -> list[tuple[str, Dance, np.ndarray]]:
     """The synthetic dancer's first ``n`` dances at ``fps`` with their known beats."""
-    from dance_core.data.synthetic_dance import make_clip
+    from dance_core.synth.synthetic_dance import make_clip
 
     out = []
     for i in range(n):
@@ -211,7 +211,7 @@ def score_dances(model: str, song: str, dances: list[Dance], beats: np.ndarray) 
 
 def reference_means(refs: list[tuple[str, Dance, np.ndarray]], fps: float) -> dict[str, float]:
     """Mean speed and jerk of the reference dances, and the diversity of three synthetic dances of one song."""
-    from dance_core.data.synthetic_dance import make_clip
+    from dance_core.synth.synthetic_dance import make_clip
     from dance_core.evaluation.quality import diversity, smoothness
 
     values = [smoothness(d.positions, d.fps) for _, d, _ in refs]

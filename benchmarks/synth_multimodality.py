@@ -33,7 +33,7 @@ from collections import Counter, defaultdict
 
 import numpy as np
 
-from dance_core.data.synthetic_dance import make_clip
+from dance_core.synth.synthetic_dance import make_clip
 from dance_core.evaluation.canon import SMPL_HIPS, canonicalize
 from dance_core.evaluation.move_validity import MoveValidity
 from dance_core.protocols import JointClip

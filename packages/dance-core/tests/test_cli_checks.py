@@ -130,7 +130,7 @@ def snapshot(*folders: Path) -> set[tuple[str, int]]:
 @pytest.fixture(scope="module")
 def assets(tmp_path_factory) -> Path:
     """Inputs of the corpus: a 2-s song and its BVH dance, and the bad files."""
-    from dance_core.data.synthetic_dance import make_clip
+    from dance_core.synth.synthetic_dance import make_clip
     from dance_core.formats.bvh import BvhFormat
     from dance_core.formats.wav import write_wav
 

@@ -7,7 +7,7 @@ import pytest
 
 from dance_core.data.features import FeatureStack
 from dance_core.data.prepare import dataset_sources, to_clip
-from dance_core.data.synthetic_dance import make_clip, write_dataset
+from dance_core.synth.synthetic_dance import make_clip, write_dataset
 from dance_core.errors import DataError
 from dance_core.formats.smpl import SmplFormat
 from dance_core.formats.wav import write_wav

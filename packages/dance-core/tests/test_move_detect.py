@@ -119,8 +119,8 @@ def test_shares_of_seconds_and_bad_input():
 
 
 def test_the_detectors_agree_with_the_synthetic_dancers_labels():
-    from dance_core.data.synth_dance import PHRASINGS
-    from dance_core.data.synthetic_dance import make_clip
+    from dance_core.synth.dancer import PHRASINGS
+    from dance_core.synth.synthetic_dance import make_clip
 
     label_of = {t: m for m, ts in PHRASINGS.items() for t in ts}
     found = {m: [0, 0] for m in md.DETECTORS}  # seconds the move covers, of them detected

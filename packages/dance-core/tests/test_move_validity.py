@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dance_core.data.synthetic_dance import make_clip
+from dance_core.synth.synthetic_dance import make_clip
 from dance_core.errors import DataError
 from dance_core.evaluation.move_validity import MoveValidity
 from dance_core.protocols import JointClip

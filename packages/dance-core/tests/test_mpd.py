@@ -5,7 +5,7 @@ a jump cut, a freeze or noise does not)."""
 import numpy as np
 import pytest
 
-from dance_core.data.synthetic_dance import make_clip
+from dance_core.synth.synthetic_dance import make_clip
 from dance_core.errors import DataError
 from dance_core.evaluation.canon import canonicalize, heading, hip_indices
 from dance_core.evaluation.mpd import MatchingPredictor, MotionPredictionDistance

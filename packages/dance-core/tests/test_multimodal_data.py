@@ -6,8 +6,8 @@ import hashlib
 import numpy as np
 import pytest
 
-from dance_core.data.synth_dance import CLASSIC, DANCERS, MOVES, NAMES
-from dance_core.data.synthetic_dance import make_clip
+from dance_core.synth.dancer import CLASSIC, DANCERS, MOVES, NAMES
+from dance_core.synth.synthetic_dance import make_clip
 
 KW = {"seconds": 10.0, "bpm": (80.0, 140.0), "rate": 8000, "fps": 30.0}
 MOVE_OF = {text: name for name, text in MOVES.items()}
@@ -27,7 +27,7 @@ def test_the_default_gives_the_dances_of_before_the_dancers_bit_for_bit():
     # rehashed on the dance24 skeleton, standing at its rest height (its rest soles are on the floor, so
     # no 3 cm foot thickness is added; root height and knee bends follow the body); with SMPL's template
     # rest pose and the old standing height put back it gives e5d34fb's 0a7e195323e783b4, 4c284bb5ca3b2124...
-    from dance_core.data.synthetic_moves import make_move_clip
+    from dance_core.synth.synthetic_moves import make_move_clip
 
     assert digest(make_clip(0, seed=3, dances_per_song=2, **KW)) == "090b1d749108b4e5"
     assert digest(make_clip(3, seed=3, dances_per_song=2, **KW)) == "3084a0cd0beb81c7"
@@ -116,7 +116,7 @@ def test_config_options_and_the_dataset(tmp_path):
     from pydantic import ValidationError
 
     from dance_core.data.dataset_configs import SyntheticDanceConfig
-    from dance_core.data.synthetic_dance import build
+    from dance_core.synth.synthetic_dance import build
 
     assert SyntheticDanceConfig().dancers == [CLASSIC] and not SyntheticDanceConfig().homogeneous
     assert SyntheticDanceConfig(dancers=None).dancers is None

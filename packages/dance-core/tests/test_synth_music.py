@@ -3,7 +3,7 @@ import time
 import numpy as np
 import pytest
 
-from dance_core.data.synth_music import STYLES, swung, synthesize
+from dance_core.synth.music import STYLES, swung, synthesize
 
 
 def flux(song, n_fft=512, n_bands=24):

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from dance_core.data.synth_dance import MOVES
-from dance_core.data.synthetic_dance import make_clip, write_dataset
+from dance_core.synth.dancer import MOVES
+from dance_core.synth.synthetic_dance import make_clip, write_dataset
 from dance_core.formats.bvh import BvhFormat
 
 KW = {"seconds": 20.0, "bpm": (80.0, 140.0), "rate": 11025, "fps": 60.0}
@@ -99,7 +99,7 @@ def test_dance_synth_cli_writes_the_dataset_and_keeps_the_click_track(tmp_path, 
 
 @pytest.mark.parametrize("style", ["four-on-the-floor", "backbeat", "hiphop", "latin"])
 def test_the_music_is_loud_on_its_beats_in_every_style(style):
-    from dance_core.data.synth_music import synthesize
+    from dance_core.synth.music import synthesize
 
     song = synthesize(30.0, 112.0, 8000, np.random.default_rng(5), style)
     hop = 80  # 10 ms frames

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from dance_core.contexts import DatasetContext
-from dance_core.data.synth_dance import MOVES, PHRASINGS, STAND, all_texts
-from dance_core.data.synthetic_moves import make_move_clip
+from dance_core.synth.dancer import MOVES, PHRASINGS, STAND, all_texts
+from dance_core.synth.synthetic_moves import make_move_clip
 from dance_core.errors import PluginError, RecipeError
 from dance_core.registry import get_registry
 
@@ -117,7 +117,7 @@ def test_a_moves_subset_and_option_errors():
 
 
 def test_a_moves_clip_writes_like_a_synthetic_dance(tmp_path):
-    from dance_core.data.synthetic_dance import write_clip
+    from dance_core.synth.synthetic_dance import write_clip
 
     clip = make_move_clip(0, seed=1, **{**KW, "seconds": (2.0, 2.5)})
     write_clip(tmp_path, clip)

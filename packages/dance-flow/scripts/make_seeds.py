@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from dance_core.data.synthetic_dance import make_clip
+from dance_core.synth.synthetic_dance import make_clip
 from dance_core.formats.bvh import BvhFormat
 
 OUT = Path(__file__).resolve().parents[1] / "src" / "dance_flow" / "recipes" / "seeds"

@@ -1,5 +1,5 @@
 """Write the word-tokens vocabulary of the bundled TM2D recipes: every word the synthetic dancer's texts
-use (``dance_core.data.synth_dance.all_texts``), most frequent first, after the four special tokens.
+use (``dance_core.synth.dancer.all_texts``), most frequent first, after the four special tokens.
 
     .venv/bin/python packages/dance-tokens/scripts/make_vocab.py
 
@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from dance_audio.text import Vocabulary
-from dance_core.data.synth_dance import all_texts
+from dance_core.synth.dancer import all_texts
 
 OUT = Path(__file__).resolve().parents[1] / "src" / "dance_tokens" / "recipes" / "tm2d-vocab.txt"
 

@@ -308,7 +308,7 @@ def synth(args: Namespace) -> int:
         elif args.seconds is not None and args.seconds < 2.0:
             raise DanceError(f"--seconds {args.seconds:g}: a dataset song needs at least 2 s")
         check_output_dir(args.out_dir, "--out")
-        from dance_core.data.synthetic_dance import synth_command
+        from dance_core.synth.synthetic_dance import synth_command
 
         return synth_command(args)
     if args.out is None:

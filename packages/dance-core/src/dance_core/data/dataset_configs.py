@@ -45,7 +45,7 @@ class SyntheticDanceConfig(ComponentConfig):
     @field_validator("dancers")
     @classmethod
     def _dancers(cls, v: list[str] | None) -> list[str] | None:
-        from dance_core.data.synth_dance import dancer_names
+        from dance_core.synth.dancer import dancer_names
 
         return None if v is None else dancer_names(v)
 
@@ -112,7 +112,7 @@ class SyntheticMovesConfig(ComponentConfig):
     @field_validator("moves")
     @classmethod
     def _moves(cls, v: list[str] | None) -> list[str] | None:
-        from dance_core.data.synth_dance import MOVES
+        from dance_core.synth.dancer import MOVES
 
         if v is not None:
             unknown = [m for m in v if m not in MOVES]

@@ -4,7 +4,7 @@ Each take is read with its registered motion format, retargeted onto the dataset
 (:mod:`dance_core.motion.retarget`: joint maps, rest poses, leg-length scale, feet on the floor) and
 resampled to the recipe's frame rate. The result is cached on disk like features: keyed by the file's
 content hash and everything that shapes the result, as ``.npz`` without pickles, so a second run reads
-no BVH. Clips carry silent audio as long as the motion, as :mod:`dance_core.data.synthetic_moves` does:
+no BVH. Clips carry silent audio as long as the motion, as :mod:`dance_core.synth.synthetic_moves` does:
 music extractors run unchanged and silence says "no music", so the clips teach a motion prior (TM2D's
 tokenizer) or mix with music-dance pairs (:mod:`dance_core.data.mix`).
 """

@@ -11,9 +11,9 @@ def register_datasets(register):
     """Core's synthetic and folder datasets."""
     register("synthetic-beats", dc.SyntheticBeatsConfig, "dance_core.data.synthetic_beats:build",
              "click-track music with known beats and a beat-locked dancer")
-    register("synthetic-dance", dc.SyntheticDanceConfig, "dance_core.data.synthetic_dance:build",
+    register("synthetic-dance", dc.SyntheticDanceConfig, "dance_core.synth.synthetic_dance:build",
              "synthesized songs (drums, bass, chords) with a beat-locked dancer (dance24) and move labels")
-    register("synthetic-moves", dc.SyntheticMovesConfig, "dance_core.data.synthetic_moves:build",
+    register("synthetic-moves", dc.SyntheticMovesConfig, "dance_core.synth.synthetic_moves:build",
              "text-motion clips: the synthetic dancer performing one move alone, described in words, no music")
     register("mix", dc.MixConfig, "dance_core.data.mix:build",
              "the clips of several datasets in one training set (optionally without a part's texts)")

@@ -1,8 +1,8 @@
 """Move validity: is every bar of a dance one of the synthetic dancer's moves?
 
 A detector, not a copy of the choreographer: it knows the moves only as the generator renders them
-(:func:`dance_core.data.synth_dance.render_moves`), never how the generator picks them. Templates:
-every move of :data:`~dance_core.data.synth_dance.MOVES`, one bar long, rendered on a grid of styles
+(:func:`dance_core.synth.dancer.render_moves`), never how the generator picks them. Templates:
+every move of :data:`~dance_core.synth.dancer.MOVES`, one bar long, rendered on a grid of styles
 spanning the generator's dancers (amplitude, groove depth, arm carriage, both lead sides, walking
 speed, every timing: on or off the beat, smooth or sharp), at every place of the bar in the moves'
 four-beat cycle. The moves are functions of musical time, so a bar sampled at ``SAMPLES`` points per
@@ -51,7 +51,7 @@ NOMINAL_BPM = 120.0
 def style_grid() -> list[dict[str, float]]:
     """Template styles: a grid over the union of the dancers' style ranges, both lead sides, every
     dancer timing (delay, attack) and, for the walk, the lowest and highest walking speed."""
-    from dance_core.data.synth_dance import DANCERS
+    from dance_core.synth.dancer import DANCERS
 
     profiles = list(DANCERS.values())
     axes = {}
@@ -70,7 +70,7 @@ def templates(meter: int) -> tuple[np.ndarray, tuple[str, ...]]:
     """Every move, one bar of ``meter`` beats, in every template style and every place of the moves'
     four-beat cycle: ``(K, meter, SAMPLES, 24, 3)`` positions with each beat in its own body frame, and
     the move of each template."""
-    from dance_core.data.synth_dance import NAMES, Style, render_moves
+    from dance_core.synth.dancer import NAMES, Style, render_moves
 
     grid = style_grid()
     bars = lcm(meter, 4) // meter  # bars start at every beat of the four-beat cycle that a bar line can

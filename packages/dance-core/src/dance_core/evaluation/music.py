@@ -92,7 +92,7 @@ def onset_peaks(envelope: np.ndarray, fps: float, min_gap: float = MIN_GAP) -> n
 def audio_beats(audio: Audio, registry: Registry, tracker: str = "librosa") -> tuple[np.ndarray, str]:
     """Beat times of an audio signal and the name of the method that found them: the registered
     ``beats`` extractor (dance-audio's, ``tracker`` as its option), else onset peaks."""
-    from dance_core.data.choreograph import TRACK_FPS, tracked_beats
+    from dance_core.synth.choreograph import TRACK_FPS, tracked_beats
 
     if "beats" in registry.names("feature"):
         beats, _ = tracked_beats(audio, registry, tracker)

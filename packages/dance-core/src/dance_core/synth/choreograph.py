@@ -5,7 +5,7 @@ so core needs no audio analysis of its own beyond a coarse per-bar description u
 sections: loudness and the balance of low, middle and high frequencies. Section boundaries sit
 where that description changes most (novelty between the bars before and after), and each section
 is named by its loudness (quiet: intro, bridge or outro; loud: chorus; else verse), which sets the
-preferences of :func:`~dance_core.data.synth_dance.choose_moves`. Several seeds give several valid
+preferences of :func:`~dance_core.synth.dancer.choose_moves`. Several seeds give several valid
 dances to one song.
 """
 
@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from dance_core.data.beat_grid import BeatGrid
-from dance_core.data.synth_dance import Style, choose_moves, dance
+from dance_core.synth.beat_grid import BeatGrid
+from dance_core.synth.dancer import Style, choose_moves, dance
 from dance_core.errors import DataError, PluginError
 from dance_core.media import Audio, FeatureInputs, TextSpan
 from dance_core.motion.motion import Motion

@@ -3,10 +3,10 @@
 Deterministic from the seed: song ``i`` draws its music from ``(seed, i)``, the order of its dancers
 from ``(seed, i, 2)`` and dance ``k`` of it its moves and style from ``(seed, i, 1, k)``, so the same
 music comes with several dances, by different dancers when ``dancers`` names several
-(:data:`~dance_core.data.synth_dance.DANCERS`; the default, the classic dancer alone, gives the dances
+(:data:`~dance_core.synth.dancer.DANCERS`; the default, the classic dancer alone, gives the dances
 of before the profiles existed, bit for bit). ``homogeneous`` is the control set: one dancer, one style,
 one fixed routine. ``dance synth --music`` choreographs the classic dancer to real songs instead
-(:mod:`dance_core.data.choreograph`).
+(:mod:`dance_core.synth.choreograph`).
 """
 
 from __future__ import annotations
@@ -17,10 +17,10 @@ from typing import Any
 
 import numpy as np
 
-from dance_core.data.beat_grid import BeatGrid
+from dance_core.synth.beat_grid import BeatGrid
 from dance_core.data.sources import ClipSource
-from dance_core.data.synth_dance import CLASSIC, dancer_names, perform_dance
-from dance_core.data.synth_music import synthesize
+from dance_core.synth.dancer import CLASSIC, dancer_names, perform_dance
+from dance_core.synth.music import synthesize
 from dance_core.media import Audio
 from dance_core.protocols import MotionData
 
@@ -32,7 +32,7 @@ def make_clip(index: int, *, seed: int, seconds: float, bpm: tuple[float, float]
 
     The dancer follows the song's true beats, or with ``tracker`` the beats that tracker hears (what a
     model reading that tracker's beat features will hear in real songs: the same tempo octave). Dance
-    ``k`` of a song is danced by ``dancers`` (names of :data:`~dance_core.data.synth_dance.DANCERS`,
+    ``k`` of a song is danced by ``dancers`` (names of :data:`~dance_core.synth.dancer.DANCERS`,
     ``None``: all) in an order drawn per song, so the dances of one song have different dancers as far as
     there are dancers; ``homogeneous``: every dance by the first dancer in its one style and fixed
     routine (the control set: dances of one song are then the same).
@@ -50,7 +50,7 @@ def make_clip(index: int, *, seed: int, seconds: float, bpm: tuple[float, float]
     if tracker is None:
         grid = BeatGrid(song.beats, song.beats_per_bar, 0)
     else:
-        from dance_core.data.choreograph import track_grid
+        from dance_core.synth.choreograph import track_grid
         from dance_core.registry import get_registry
 
         grid = track_grid(audio, get_registry(), tracker)
@@ -81,7 +81,7 @@ def _motion_data(motion, meta: dict) -> MotionData:
 
 def music_clips(path: str, registry, *, dances: int, seed: int, fps: float, tracker: str) -> list[ClipSource]:
     """``dances`` dances of the synthetic dancer to one real song (beats from the registered tracker)."""
-    from dance_core.data.choreograph import choreograph, track_grid
+    from dance_core.synth.choreograph import choreograph, track_grid
     from dance_core.data.features import load_audio
 
     audio = load_audio(path, registry)

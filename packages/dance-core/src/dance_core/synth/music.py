@@ -6,7 +6,7 @@ bridge, outro) of whole bars. Like a live band its tempo drifts slowly (up to ``
 percent, smooth over tens of beats), so beats are not evenly spaced, and it may swing (off-beat
 8ths or 16ths late by the ``swing`` ratio). Every note and hit is placed in musical time (beats)
 and mapped to seconds through the integrated tempo curve. Instruments and levels vary per song
-(:mod:`.synth_instruments`): plucked or FM keys, a lead, an organ or strings pad, claps, shakers,
+(:mod:`.instruments`): plucked or FM keys, a lead, an organ or strings pad, claps, shakers,
 rides, toms; some intros and bridges drop the drums and keep only a bass or keys pulse on every
 beat. A short room reverb and background noise (20-50 dB below the music) finish the mix. The
 first beat comes within half a beat of the start, after a soft count-in where it fits. Beat and
@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dance_core.data import synth_instruments as ins
+from dance_core.synth import instruments as ins
 
 BEATS_PER_BAR = 4  # the default meter's (4/4) beats per bar
 STEPS = 4  # drum steps per beat (16th notes)

@@ -1,4 +1,4 @@
-"""Instrument voices for :mod:`dance_core.data.synth_music`, in plain numpy.
+"""Instrument voices for :mod:`dance_core.synth.music`, in plain numpy.
 
 Drums are decaying sines and shaped noise; basses, keys, leads and pads are additive or FM tones;
 plucks are Karplus-Strong strings. Every voice is a float64 array at ``rate`` Hz; partials above

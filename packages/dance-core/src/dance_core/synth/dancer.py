@@ -1,6 +1,6 @@
 """A beat-locked dancer on ``dance24`` (SMPL-24 joints): moves chosen per bar, with timed text labels.
 
-Every move is a pose function of musical time (a :class:`~dance_core.data.beat_grid.BeatGrid`:
+Every move is a pose function of musical time (a :class:`~dance_core.synth.beat_grid.BeatGrid`:
 beats since the first downbeat, on even or uneven beats, in bars of 2-7 beats): joint rotations as
 exponential maps, periodic root offsets and root rates (travel, turning, per beat) that are
 integrated over time. A groove shared by all moves dips the hips on every beat, so the hip's
@@ -24,7 +24,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from dance_core.data.beat_grid import BeatGrid
+from dance_core.synth.beat_grid import BeatGrid
 from dance_core.media import TextSpan, frame_count
 from dance_core.motion.motion import Motion
 from dance_core.motion.rotations import expmap_to_quat, quat_mul, quat_rotate, yaw_quat

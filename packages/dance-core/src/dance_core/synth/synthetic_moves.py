@@ -2,12 +2,12 @@
 
 TM2D trains its text branch on a text-motion corpus (HumanML3D in the paper: motions of 2-10 s, each
 with several descriptions and no music), disjoint from its music-dance pairs. This is that corpus for
-the dancer of :mod:`dance_core.data.synth_dance`: clip ``i`` performs one labelled move alone (the
+the dancer of :mod:`dance_core.synth.dancer`: clip ``i`` performs one labelled move alone (the
 moves are dealt in turn, so every move has as many clips as the others, give or take one) for a random
 length (stretched, up to the longest allowed, to hold at least one whole bar of the move), to a random
 tempo and meter, in a random style (amplitude, groove depth, arm carriage, lead side, walking speed),
 optionally rising from and settling into the rest pose (standing, arms down) at either end; its
-text, one of the move's :data:`~dance_core.data.synth_dance.PHRASINGS`, covers the whole clip.
+text, one of the move's :data:`~dance_core.synth.dancer.PHRASINGS`, covers the whole clip.
 Deterministic from the seed: clip ``i`` draws everything from ``(seed, i)``.
 
 No music: a source without audio would reach the feature extractors with ``audio=None``, which every
@@ -25,10 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from dance_core.data.beat_grid import BeatGrid
+from dance_core.synth.beat_grid import BeatGrid
 from dance_core.data.sources import ClipSource
-from dance_core.data.synth_dance import NAMES, PHRASINGS, STAND, Style, _pose
-from dance_core.data.synthetic_dance import _motion_data
+from dance_core.synth.dancer import NAMES, PHRASINGS, STAND, Style, _pose
+from dance_core.synth.synthetic_dance import _motion_data
 from dance_core.media import Audio, TextSpan, frame_count
 from dance_core.motion.motion import Motion
 from dance_core.motion.rotations import expmap_to_quat, quat_mul, quat_rotate, yaw_quat
