@@ -53,7 +53,7 @@ def test_a_folder_dataset_reads_its_motion_with_the_recipes_options(tmp_path):
 
     def root_positions(*extra):
         recipe = load_recipe("core-dance", [dataset, *extra])
-        context = DatasetContext(fps=recipe.fps, root=recipe._dir, formats=recipe.format_options)
+        context = DatasetContext(fps=recipe.fps, root=recipe.folder, formats=recipe.format_options)
         return recipe.data.dataset.build(context).clips()[0].motion.skeleton_motion.root
 
     np.testing.assert_allclose(root_positions("formats.bvh.scale=2"), 2 * root_positions(), rtol=1e-5)

@@ -27,7 +27,7 @@ SETS = [*TINY_DATA, "data.val_fraction=0.34", "training.batch_size=16", "trainin
 def held_out_songs(name: str, sets: list[str], first: int, last: int):
     """Songs ``first..last-1`` of recipe ``name``'s generator (the model trains on songs 0-2)."""
     recipe = load_recipe(name, [*sets, f"data.dataset.songs={last}"])
-    dataset = recipe.data.dataset.build(DatasetContext(fps=recipe.fps, seed=recipe.seed, root=recipe._dir))
+    dataset = recipe.data.dataset.build(DatasetContext(fps=recipe.fps, seed=recipe.seed, root=recipe.folder))
     return dataset.clips()[first:last]
 
 

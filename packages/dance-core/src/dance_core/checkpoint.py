@@ -177,7 +177,7 @@ def check_matches(ckpt: Checkpoint, recipe: Recipe) -> None:
     differ = _diff(recipe.model_dict(ckpt.recipe), recipe.model_dict())
     if differ:
         shown = ", ".join(differ[:4]) + (f" and {len(differ) - 4} more" if len(differ) > 4 else "")
-        raise CheckpointError(f"{ckpt.path}: checkpoint does not match recipe {recipe._origin}: {shown} differ")
+        raise CheckpointError(f"{ckpt.path}: checkpoint does not match recipe {recipe.origin}: {shown} differ")
 
 
 def load_weights(model: torch.nn.Module, ckpt: Checkpoint) -> None:

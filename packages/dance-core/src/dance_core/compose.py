@@ -193,13 +193,13 @@ def compose_songs(
     registry = get_registry()
     checkpoint = checkpoint or (recipe.resolve_path(c.checkpoint) if c.checkpoint else None)
     if checkpoint is None:
-        raise RecipeError(f"{recipe._origin}: compose.checkpoint: no model given (or pass --checkpoint)")
+        raise RecipeError(f"{recipe.origin}: compose.checkpoint: no model given (or pass --checkpoint)")
     songs_in = expand_music(music or [recipe.resolve_path(m) for m in c.music], registry)
     if not songs_in:
-        raise RecipeError(f"{recipe._origin}: compose.music: no song given (or pass --music)")
+        raise RecipeError(f"{recipe.origin}: compose.music: no song given (or pass --music)")
     if c.texts and not reads_text(recipe, registry):
         features = ", ".join(s.plugin for specs in recipe.features.values() for s in specs)
-        raise RecipeError(f"{recipe._origin}: compose.texts: this model reads no text (features: {features}); "
+        raise RecipeError(f"{recipe.origin}: compose.texts: this model reads no text (features: {features}); "
                           "drop --text or use a recipe with a text feature such as tm2d-small")
     formats = [(entry, recipe.format_options.build(entry))
                for entry in (registry.find("motion-format", f) for f in c.formats)]

@@ -22,7 +22,7 @@ def build_model(recipe: Recipe, motion_dim: int, stream_dims: Mapping[str, int])
     for name, spec in recipe.model.conditioners.items():
         if name not in stream_dims:
             raise RecipeError(
-                f"{recipe._origin}: model.conditioners.{name}: no feature stream {name!r} "
+                f"{recipe.origin}: model.conditioners.{name}: no feature stream {name!r} "
                 f"(streams: {', '.join(stream_dims) or 'none'})"
             )
         conditioners[name] = _build(spec, f"model.conditioners.{name}", ConditionerContext(name, stream_dims[name]))
@@ -38,7 +38,7 @@ def build_model(recipe: Recipe, motion_dim: int, stream_dims: Mapping[str, int])
     gives = head.frames if encoder.window.song_level else encoder.latent_tokens
     if want is not None and want != gives:
         raise RecipeError(
-            f"{recipe._origin}: model.head: {recipe.model.head.plugin} needs {want} latent tokens "
+            f"{recipe.origin}: model.head: {recipe.model.head.plugin} needs {want} latent tokens "
             f"but {recipe.model.encoder.plugin} gives {gives}"
         )
     return ComposedModel(conditioners, encoder, head)

@@ -240,7 +240,7 @@ class Trainer:
         self.stack = FeatureStack(recipe)
         unknown = sorted(set(self.t.augment.input_dropout) - {"motion", *self.stack.dims()})
         if unknown:
-            raise RecipeError(f"{recipe._origin}: training.augment.input_dropout.{unknown[0]}: no input of that name "
+            raise RecipeError(f"{recipe.origin}: training.augment.input_dropout.{unknown[0]}: no input of that name "
                               f"(inputs: motion, {', '.join(self.stack.dims())})")
         init = init_checkpoint(recipe)  # read before the data, so a wrong path fails at once
         sources = dataset_sources(recipe)
@@ -266,7 +266,7 @@ class Trainer:
             init_weights(self.model, init, self.t.init.weights)
         aug = self.t.augment
         if self.model.window.song_level and (aug.motion_noise > 0 or aug.input_dropout.get("motion", 0.0) > 0):
-            raise RecipeError(f"{recipe._origin}: training.augment: motion_noise and input_dropout.motion corrupt "
+            raise RecipeError(f"{recipe.origin}: training.augment: motion_noise and input_dropout.motion corrupt "
                               f"the past motion a windowed encoder sees; {recipe.model.encoder.plugin} sees none")
         length = self.model.segment_frames(recipe.data.segment_frames)
         self.sampler = SegmentSampler(train, length, self.t.batch_size, recipe.seed)

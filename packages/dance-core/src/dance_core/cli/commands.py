@@ -242,7 +242,7 @@ def recipe_validate(args: Namespace) -> int:
     """``dance recipe validate``."""
     recipe = _recipe(args)
     parts = ", ".join(f"{kind} {spec.plugin}" for kind, _, spec in recipe.components())
-    print(f"{recipe._origin}: ok ({recipe.name}: {parts})")
+    print(f"{recipe.origin}: ok ({recipe.name}: {parts})")
     return 0
 
 

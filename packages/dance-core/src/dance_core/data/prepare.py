@@ -20,8 +20,8 @@ def dataset_sources(recipe: Recipe) -> list[ClipSource]:
     """The recipe's dataset, built and listed; skeletal motion is resampled to the recipe's fps and
     encoded with the recipe's ``motion:`` representation (mirrored copies added with ``data.mirror``)."""
     if recipe.data is None:
-        raise RecipeError(f"{recipe._origin}: data: required for training")
-    context = DatasetContext(fps=recipe.fps, seed=recipe.seed, root=recipe._dir, formats=recipe.format_options)
+        raise RecipeError(f"{recipe.origin}: data: required for training")
+    context = DatasetContext(fps=recipe.fps, seed=recipe.seed, root=recipe.folder, formats=recipe.format_options)
     dataset = recipe.data.dataset.build(context)
     sources = list(dataset.clips())
     if not sources:
@@ -35,7 +35,7 @@ def encode_sources(recipe: Recipe, sources: list[ClipSource]) -> list[ClipSource
     plugin = recipe.data.dataset.plugin if recipe.data else "?"
     if recipe.motion is None:
         if skeletal:
-            raise RecipeError(f"{recipe._origin}: motion: dataset {plugin!r} yields skeletal motion; choose a "
+            raise RecipeError(f"{recipe.origin}: motion: dataset {plugin!r} yields skeletal motion; choose a "
                               "representation, e.g. `motion: {plugin: rotations}`")
         return sources
     if len(skeletal) != len(sources):

@@ -275,6 +275,16 @@ class Recipe(Strict):
             raise RuntimeError("the recipe's formats have not been validated")
         return self._formats
 
+    @property
+    def origin(self) -> str:
+        """Where the recipe came from, for messages: its file (a bundled recipe's too), else ``<recipe>``."""
+        return self._origin
+
+    @property
+    def folder(self) -> str:
+        """The folder the recipe's relative paths are read from: its file's folder (read-only)."""
+        return self._dir
+
     def components(self) -> list[tuple[str, tuple[Any, ...], ComponentSpec]]:
         """Every component spec as (kind, location, spec)."""
         found: list[tuple[str, tuple[Any, ...], ComponentSpec]] = []
