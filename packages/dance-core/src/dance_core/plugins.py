@@ -33,6 +33,7 @@ DEFAULT_PLUGINS: dict[str, str] = {
     "dance-core.formats": "dance_core.defaults.formats",
     "dance-core.previews": "dance_core.defaults.previews",
     "dance-core.data": "dance_core.defaults.data",
+    "dance-core.synth": "dance_core.defaults.synth",
     "dance-core.evaluation": "dance_core.defaults.evaluation",
     "dance-core.authoring": "dance_core.defaults.authoring",
 }

@@ -178,47 +178,6 @@ def _train_parser(sub) -> None:
     p.set_defaults(run=commands.train)
 
 
-def _synth_parser(sub) -> None:
-    p = sub.add_parser(
-        "synth",
-        help="write a click-track test song (FILE.wav), or a synthetic dance dataset (--out DIR)",
-        description="Two forms, one at a time:\n"
-        "  dance synth FILE.wav [--bpm --seconds --rate --seed]   a click-track test song\n"
-        "  dance synth --out DIR [--songs | --music SONG...]      a dataset: songs with a beat-locked dancer",
-        epilog=_examples(
-            "dance synth song.wav --bpm 128 --seconds 30",
-            "dance synth --out data/synth --songs 100 --seconds 60 --jobs 2",
-            "dance synth --music my-songs/ --out data/mine --dances 3",
-        ),
-    )
-    p.add_argument("out", nargs="?", metavar="FILE.wav", help="click-track WAV file to write")
-    p.add_argument("--out", dest="out_dir", metavar="DIR",
-                   help="write a dataset instead: songs with a beat-locked dancer (WAV, BVH, beats, labels)")
-    p.add_argument("--songs", type=bounded_number(int, 1, 100_000), default=10, help="dataset songs, 1-100000")
-    p.add_argument("--music", nargs="+", metavar="SONG",
-                   help="with --out: choreograph the dancer to these songs (files or folders) instead")
-    p.add_argument("--dances", type=bounded_number(int, 1, 1000), default=1, metavar="N",
-                   help="dances per song, 1-1000 (with --out: one dancer each, see --dancers)")
-    p.add_argument("--dancers", nargs="+", metavar="NAME",
-                   help="with --out: the dancers (classic, bouncer, glider, hitter, popper, wanderer, or all; "
-                   "default classic, the dances of before), a different one per dance of a song")
-    p.add_argument("--homogeneous", action="store_true",
-                   help="with --out: the control set: every dance by the first dancer, one style, one fixed routine")
-    p.add_argument("--tracker", choices=["flux", "librosa", "madmom", "auto"], default="flux",
-                   help="with --music: beat tracker (madmom's model files are non-commercial)")
-    p.add_argument("--fps", type=bounded_number(float, 0.0, 1000.0, above=True), default=60.0,
-                   help="dataset motion frame rate, up to 1000")
-    p.add_argument("--jobs", type=bounded_number(int, 1, 256), default=1, help="dataset worker processes, 1-256")
-    p.add_argument("--bpm", type=bounded_number(float, 20.0, 400.0), default=120.0,
-                   help="click-track tempo in beats per minute, 20-400")
-    p.add_argument("--seconds", type=bounded_number(float, 0.0, 3600.0, above=True, unit="s"),
-                   help="length in seconds, up to 3600 (default: 20 for a click track, 60 for dataset songs)")
-    p.add_argument("--rate", type=bounded_number(int, 8000, 192_000, unit="Hz"), default=22050,
-                   help="sample rate in Hz, 8000-192000")
-    p.add_argument("--seed", type=int, default=0, help="seed of the drone notes and noise")
-    p.set_defaults(run=commands.synth)
-
-
 def _recipe_parsers(sub) -> None:
     rp = sub.add_parser(
         "recipe",
@@ -263,7 +222,6 @@ def build_parser() -> Parser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     _compose_parser(sub)
     _train_parser(sub)
-    _synth_parser(sub)
     p = sub.add_parser("plugins", help="list installed components by kind",
                        epilog=_examples("dance plugins", "dance plugins --json"))
     p.add_argument("--json", action="store_true", help="machine-readable output")

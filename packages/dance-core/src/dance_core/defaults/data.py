@@ -1,4 +1,5 @@
-"""Core's datasets: synthetic music and dancers, and folders of real music/motion pairs."""
+"""Core's datasets: click-track songs with a beat-locked dancer, mixes, and folders of real music/motion
+pairs (the synthetic dancer's datasets are the synth plugin's, ``dance_core.defaults.synth``)."""
 
 from __future__ import annotations
 
@@ -8,13 +9,9 @@ from dance_core.hookspecs import hookimpl
 
 @hookimpl
 def register_datasets(register):
-    """Core's synthetic and folder datasets."""
+    """Core's synthetic-beats, mix and folder datasets."""
     register("synthetic-beats", dc.SyntheticBeatsConfig, "dance_core.data.synthetic_beats:build",
              "click-track music with known beats and a beat-locked dancer")
-    register("synthetic-dance", dc.SyntheticDanceConfig, "dance_core.synth.synthetic_dance:build",
-             "synthesized songs (drums, bass, chords) with a beat-locked dancer (dance24) and move labels")
-    register("synthetic-moves", dc.SyntheticMovesConfig, "dance_core.synth.synthetic_moves:build",
-             "text-motion clips: the synthetic dancer performing one move alone, described in words, no music")
     register("mix", dc.MixConfig, "dance_core.data.mix:build",
              "the clips of several datasets in one training set (optionally without a part's texts)")
     register("folder", dc.FolderDatasetConfig, "dance_core.data.folders:build_folder",

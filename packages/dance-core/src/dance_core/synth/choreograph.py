@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from dance_core.synth.beat_grid import BeatGrid
-from dance_core.synth.dancer import Style, choose_moves, dance
 from dance_core.errors import DataError, PluginError
 from dance_core.media import Audio, FeatureInputs, TextSpan
 from dance_core.motion.motion import Motion
 from dance_core.registry import Registry
+from dance_core.synth.beat_grid import BeatGrid
+from dance_core.synth.dancer import Style, choose_moves, dance
 
 TRACK_FPS = 100.0
 #: upper edges (Hz) of the bands of the per-bar description

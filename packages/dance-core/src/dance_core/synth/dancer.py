@@ -24,11 +24,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from dance_core.synth.beat_grid import BeatGrid
 from dance_core.media import TextSpan, frame_count
 from dance_core.motion.motion import Motion
 from dance_core.motion.rotations import expmap_to_quat, quat_mul, quat_rotate, yaw_quat
 from dance_core.motion.skeletons import dance24
+from dance_core.synth.beat_grid import BeatGrid
 
 MOVES = {
     "bounce": "a person bounces to the beat",

@@ -1,4 +1,4 @@
-"""The ``synthetic-dance`` dataset and ``dance synth``: songs with a beat-locked dancer (on ``dance24``).
+"""The ``synthetic-dance`` dataset and the files ``dance synth`` writes: songs with a beat-locked dancer (on ``dance24``).
 
 Deterministic from the seed: song ``i`` draws its music from ``(seed, i)``, the order of its dancers
 from ``(seed, i, 2)`` and dance ``k`` of it its moves and style from ``(seed, i, 1, k)``, so the same
@@ -17,12 +17,12 @@ from typing import Any
 
 import numpy as np
 
-from dance_core.synth.beat_grid import BeatGrid
 from dance_core.data.sources import ClipSource
-from dance_core.synth.dancer import CLASSIC, dancer_names, perform_dance
-from dance_core.synth.music import synthesize
 from dance_core.media import Audio
 from dance_core.protocols import MotionData
+from dance_core.synth.beat_grid import BeatGrid
+from dance_core.synth.dancer import CLASSIC, dancer_names, perform_dance
+from dance_core.synth.music import synthesize
 
 
 def make_clip(index: int, *, seed: int, seconds: float, bpm: tuple[float, float], rate: int, fps: float,
@@ -50,8 +50,8 @@ def make_clip(index: int, *, seed: int, seconds: float, bpm: tuple[float, float]
     if tracker is None:
         grid = BeatGrid(song.beats, song.beats_per_bar, 0)
     else:
-        from dance_core.synth.choreograph import track_grid
         from dance_core.registry import get_registry
+        from dance_core.synth.choreograph import track_grid
 
         grid = track_grid(audio, get_registry(), tracker)
     bar_beats = grid.beats_per_bar
@@ -81,8 +81,8 @@ def _motion_data(motion, meta: dict) -> MotionData:
 
 def music_clips(path: str, registry, *, dances: int, seed: int, fps: float, tracker: str) -> list[ClipSource]:
     """``dances`` dances of the synthetic dancer to one real song (beats from the registered tracker)."""
-    from dance_core.synth.choreograph import choreograph, track_grid
     from dance_core.data.features import load_audio
+    from dance_core.synth.choreograph import choreograph, track_grid
 
     audio = load_audio(path, registry)
     grid = track_grid(audio, registry, tracker)
@@ -221,31 +221,3 @@ def write_music_dances(out: str | Path, music: list[str], dances: int, seed: int
             names.append(clip.name)
     return names
 
-
-def synth_command(args: Any) -> int:
-    """``dance synth --out DIR --songs N --seed S [--dances K --dancers NAME... --homogeneous]`` (or
-    ``--music SONGS``): write a dataset, say where. ``--dancers all`` names every dancer."""
-    from dance_core.errors import DanceError
-
-    dancers = args.dancers or [CLASSIC]
-    homogeneous = bool(args.homogeneous)
-    if args.music:
-        if dancers != [CLASSIC] or homogeneous:
-            raise DanceError("synth: --dancers and --homogeneous are for synthetic songs (--songs), not --music")
-        if not (1 <= args.dances <= 1000) or args.fps <= 0:
-            raise DanceError("synth: need 1 <= --dances <= 1000 and --fps > 0")
-        names = write_music_dances(args.out_dir, args.music, args.dances, args.seed, args.fps, args.tracker)
-        print(f"{args.out_dir}: {len(names)} dances ({names[0]} ... {names[-1]}): song .bvh .beats .texts .sections")
-        return 0
-    seconds = 60.0 if args.seconds is None else args.seconds
-    if not (1 <= args.songs <= 100_000) or not (2.0 <= seconds <= 3600) or args.fps <= 0 or args.rate < 8000:
-        raise DanceError("synth: need 1 <= --songs, 2 <= --seconds <= 3600, --fps > 0, --rate >= 8000")
-    try:
-        chosen = None if "all" in dancers else dancer_names(dancers)
-    except ValueError as exc:
-        raise DanceError(f"synth: --dancers: {exc}") from exc
-    names = write_dataset(args.out_dir, args.songs, args.seed, seconds, args.fps, rate=args.rate,
-                          dances_per_song=args.dances, jobs=max(1, args.jobs), dancers=chosen, homogeneous=homogeneous)
-    what = f"{args.songs} songs x {args.dances} dances" if args.dances > 1 else f"{len(names)} songs"
-    print(f"{args.out_dir}: {what} ({names[0]} ... {names[-1]}): .wav .bvh .beats .texts .sections")
-    return 0

@@ -25,14 +25,14 @@ from typing import Any
 
 import numpy as np
 
-from dance_core.synth.beat_grid import BeatGrid
 from dance_core.data.sources import ClipSource
-from dance_core.synth.dancer import NAMES, PHRASINGS, STAND, Style, _pose
-from dance_core.synth.synthetic_dance import _motion_data
 from dance_core.media import Audio, TextSpan, frame_count
 from dance_core.motion.motion import Motion
 from dance_core.motion.rotations import expmap_to_quat, quat_mul, quat_rotate, yaw_quat
 from dance_core.motion.skeletons import dance24
+from dance_core.synth.beat_grid import BeatGrid
+from dance_core.synth.dancer import NAMES, PHRASINGS, STAND, Style, _pose
+from dance_core.synth.synthetic_dance import _motion_data
 
 #: a stream of draws of its own: the same seed gives synthetic-dance and synthetic-moves unrelated clips
 STREAM = 0x6D6F7665

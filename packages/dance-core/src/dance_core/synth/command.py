@@ -1,0 +1,127 @@
+"""``dance synth``: a click-track test song, or a synthetic dance dataset (songs with a beat-locked dancer).
+
+Registered through the synth default plugin's ``register_commands`` hook (``dance_core.defaults.synth``);
+everything heavy is imported when the command runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from dance_core.cli.checks import bounded_number
+
+
+def add_parser(subparsers) -> None:
+    """Add the ``synth`` subcommand."""
+    p = subparsers.add_parser(
+        "synth",
+        help="write a click-track test song (FILE.wav), or a synthetic dance dataset (--out DIR)",
+        description="Two forms, one at a time:\n"
+        "  dance synth FILE.wav [--bpm --seconds --rate --seed]   a click-track test song\n"
+        "  dance synth --out DIR [--songs | --music SONG...]      a dataset: songs with a beat-locked dancer",
+        epilog="examples:\n"
+        "  dance synth song.wav --bpm 128 --seconds 30\n"
+        "  dance synth --out data/synth --songs 100 --seconds 60 --jobs 2\n"
+        "  dance synth --music my-songs/ --out data/mine --dances 3",
+    )
+    p.add_argument("out", nargs="?", metavar="FILE.wav", help="click-track WAV file to write")
+    p.add_argument("--out", dest="out_dir", metavar="DIR",
+                   help="write a dataset instead: songs with a beat-locked dancer (WAV, BVH, beats, labels)")
+    p.add_argument("--songs", type=bounded_number(int, 1, 100_000), default=10, help="dataset songs, 1-100000")
+    p.add_argument("--music", nargs="+", metavar="SONG",
+                   help="with --out: choreograph the dancer to these songs (files or folders) instead")
+    p.add_argument("--dances", type=bounded_number(int, 1, 1000), default=1, metavar="N",
+                   help="dances per song, 1-1000 (with --out: one dancer each, see --dancers)")
+    p.add_argument("--dancers", nargs="+", metavar="NAME",
+                   help="with --out: the dancers (classic, bouncer, glider, hitter, popper, wanderer, or all; "
+                   "default classic, the dances of before), a different one per dance of a song")
+    p.add_argument("--homogeneous", action="store_true",
+                   help="with --out: the control set: every dance by the first dancer, one style, one fixed routine")
+    p.add_argument("--tracker", choices=["flux", "librosa", "madmom", "auto"], default="flux",
+                   help="with --music: beat tracker (madmom's model files are non-commercial)")
+    p.add_argument("--fps", type=bounded_number(float, 0.0, 1000.0, above=True), default=60.0,
+                   help="dataset motion frame rate, up to 1000")
+    p.add_argument("--jobs", type=bounded_number(int, 1, 256), default=1, help="dataset worker processes, 1-256")
+    p.add_argument("--bpm", type=bounded_number(float, 20.0, 400.0), default=120.0,
+                   help="click-track tempo in beats per minute, 20-400")
+    p.add_argument("--seconds", type=bounded_number(float, 0.0, 3600.0, above=True, unit="s"),
+                   help="length in seconds, up to 3600 (default: 20 for a click track, 60 for dataset songs)")
+    p.add_argument("--rate", type=bounded_number(int, 8000, 192_000, unit="Hz"), default=22050,
+                   help="sample rate in Hz, 8000-192000")
+    p.add_argument("--seed", type=int, default=0, help="seed of the drone notes and noise")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """A click track with beats every 60/bpm seconds (downbeat every 4th), or a dataset (``--out DIR``)."""
+    from dance_core.cli.checks import check_output_dir, check_output_file
+    from dance_core.errors import DanceError
+
+    if args.out is not None and args.out_dir is not None:
+        raise DanceError(
+            f"synth: give either FILE.wav ({args.out}: a click track) or --out DIR ({args.out_dir}: a dataset), "
+            "not both"
+        )
+    if args.music and args.out_dir is None:
+        raise DanceError("synth: --music needs --out DIR (the folder to write the dances into)")
+    if args.out_dir is not None:
+        if args.music:
+            for song in args.music:
+                if not Path(song).exists():
+                    raise DanceError(f"--music {song}: no such file or folder")
+        elif args.seconds is not None and args.seconds < 2.0:
+            raise DanceError(f"--seconds {args.seconds:g}: a dataset song needs at least 2 s")
+        check_output_dir(args.out_dir, "--out")
+        return write_dances(args)
+    if args.out is None:
+        raise DanceError("synth: give a WAV file to write, or --out DIR for a synthetic dance dataset")
+    seconds = 20.0 if args.seconds is None else args.seconds
+    if seconds < 0.5:
+        raise DanceError(f"--seconds {seconds:g}: a click track needs at least 0.5 s (the shortest song dance reads)")
+    if Path(args.out).suffix.lower() not in (".wav", ".wave") and not Path(args.out).is_dir():
+        raise DanceError(f"{args.out}: a click track is a .wav file; for a dataset folder use --out DIR")
+    check_output_file(args.out, None, suffixes=(".wav", ".wave"))
+
+    import numpy as np
+
+    from dance_core.data.synthetic_beats import click_track
+    from dance_core.formats.wav import write_wav
+
+    beats = np.arange(0.0, seconds, 60.0 / args.bpm)
+    audio = click_track(beats, seconds, args.rate, np.random.default_rng(args.seed))
+    write_wav(args.out, audio, args.rate)
+    print(args.out)
+    return 0
+
+
+def write_dances(args: Any) -> int:
+    """``dance synth --out DIR --songs N --seed S [--dances K --dancers NAME... --homogeneous]`` (or
+    ``--music SONGS``): write a dataset, say where. ``--dancers all`` names every dancer."""
+    from dance_core.errors import DanceError
+    from dance_core.synth.dancer import CLASSIC, dancer_names
+    from dance_core.synth.synthetic_dance import write_dataset, write_music_dances
+
+    dancers = args.dancers or [CLASSIC]
+    homogeneous = bool(args.homogeneous)
+    if args.music:
+        if dancers != [CLASSIC] or homogeneous:
+            raise DanceError("synth: --dancers and --homogeneous are for synthetic songs (--songs), not --music")
+        if not (1 <= args.dances <= 1000) or args.fps <= 0:
+            raise DanceError("synth: need 1 <= --dances <= 1000 and --fps > 0")
+        names = write_music_dances(args.out_dir, args.music, args.dances, args.seed, args.fps, args.tracker)
+        print(f"{args.out_dir}: {len(names)} dances ({names[0]} ... {names[-1]}): song .bvh .beats .texts .sections")
+        return 0
+    seconds = 60.0 if args.seconds is None else args.seconds
+    if not (1 <= args.songs <= 100_000) or not (2.0 <= seconds <= 3600) or args.fps <= 0 or args.rate < 8000:
+        raise DanceError("synth: need 1 <= --songs, 2 <= --seconds <= 3600, --fps > 0, --rate >= 8000")
+    try:
+        chosen = None if "all" in dancers else dancer_names(dancers)
+    except ValueError as exc:
+        raise DanceError(f"synth: --dancers: {exc}") from exc
+    names = write_dataset(args.out_dir, args.songs, args.seed, seconds, args.fps, rate=args.rate,
+                          dances_per_song=args.dances, jobs=max(1, args.jobs), dancers=chosen, homogeneous=homogeneous)
+    what = f"{args.songs} songs x {args.dances} dances" if args.dances > 1 else f"{len(names)} songs"
+    print(f"{args.out_dir}: {what} ({names[0]} ... {names[-1]}): .wav .bvh .beats .texts .sections")
+    return 0
