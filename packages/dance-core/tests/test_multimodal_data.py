@@ -115,7 +115,7 @@ def test_the_homogeneous_control_is_one_dancer_one_style_one_routine():
 def test_config_options_and_the_dataset(tmp_path):
     from pydantic import ValidationError
 
-    from dance_core.data.dataset_configs import SyntheticDanceConfig
+    from dance_core.synth.configs import SyntheticDanceConfig
     from dance_core.synth.synthetic_dance import build
 
     assert SyntheticDanceConfig().dancers == [CLASSIC] and not SyntheticDanceConfig().homogeneous
