@@ -247,7 +247,6 @@ def generate(recipe, checkpoint: str, songs: list[Path], beats: dict, samples: i
     import torch
 
     from dance_core.compose import generate_song, grounded, load_model, seed_motion
-    from dance_core.data.prepare import decode_motion
     from dance_core.protocols import JointClip
     from dance_core.registry import get_registry
 
@@ -262,8 +261,7 @@ def generate(recipe, checkpoint: str, songs: list[Path], beats: dict, samples: i
         motion = generate_song(model, song, seed, recipe, torch.device("cpu"))
         frames += motion.shape[0] * song.n_frames
         for k in range(samples):
-            data = decode_motion(ckpt.motion, ckpt.stats.motion.invert(motion[k, : song.n_frames]), recipe.fps,
-                                 registry)
+            data = ckpt.motion.decode(ckpt.stats.motion.invert(motion[k, : song.n_frames]), recipe.fps, registry)
             data = grounded(data, ckpt.motion, registry)
             sm = data.skeleton_motion
             if resample_to and abs(sm.fps - resample_to) > 1e-6:

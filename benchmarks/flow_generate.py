@@ -37,7 +37,7 @@ def time_generate(
         from dance_core.compose import load_model
 
         model, ckpt, stack = load_model(recipe, checkpoint, torch.device(device))
-        motion_dim, music_dim = ckpt.motion["dim"], stack.dims()["music"]
+        motion_dim, music_dim = ckpt.motion.dim, stack.dims()["music"]
     else:
         motion_dim, music_dim = MOTION_DIM, MUSIC_DIM
         model = build_model(recipe, motion_dim, {"music": music_dim}).to(device).eval()

@@ -101,7 +101,6 @@ def dances(model, recipe, ckpt, streams, n: int, name: str) -> list[np.ndarray]:
     import torch
 
     from dance_core.compose import Song, generate_song, grounded, seed_motion
-    from dance_core.data.prepare import decode_motion
     from dance_core.registry import get_registry
 
     reg = get_registry()
@@ -109,7 +108,7 @@ def dances(model, recipe, ckpt, streams, n: int, name: str) -> list[np.ndarray]:
     motion = generate_song(model, Song(name, streams, n), seed, recipe, torch.device("cpu"))
     out = []
     for k in range(motion.shape[0]):
-        data = decode_motion(ckpt.motion, ckpt.stats.motion.invert(motion[k, :n]), recipe.fps, reg)
+        data = ckpt.motion.decode(ckpt.stats.motion.invert(motion[k, :n]), recipe.fps, reg)
         if recipe.compose.ground:
             data = grounded(data, ckpt.motion, reg)
         out.append(np.asarray(data.skeleton_motion.positions(), np.float64))

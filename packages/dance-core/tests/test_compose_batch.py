@@ -150,7 +150,7 @@ def _generate(model, recipe, batched: bool) -> list[np.ndarray]:
     registry = get_registry()
     device = torch.device("cpu")
     net, ckpt, stack = load_model(recipe, model["checkpoint"], device)
-    seed = torch.zeros(net.start_frames(), ckpt.motion["dim"])
+    seed = torch.zeros(net.start_frames(), ckpt.motion.dim)
     songs = [load_song(p, stack, ckpt, None, registry) for p in model["songs"]]
     assert len({s.n_frames for s in songs}) == 3
     if batched:

@@ -73,10 +73,12 @@ def test_checkpoint_stores_the_representation_and_skeleton(run):
 
     recipe, result = run
     info = load_checkpoint(result.checkpoint).motion
-    assert info["representation"] == {"plugin": "rotations", "rotation": "expmap", "root": "deltas", "joints": None}
-    assert info["skeleton"]["name"] == "dance24" and info["dim"] == 4 + 24 * 3
-    assert info["channels"][:2] == ["root.dx", "root.dz"]
-    json.dumps(info)
+    assert info.representation == "rotations" and info.options == {"rotation": "expmap", "root": "deltas", "joints": None}
+    assert info.skeleton.name == "dance24" and info.dim == 4 + 24 * 3
+    assert info.channels[:2] == ("root.dx", "root.dz")
+    stored = info.to_dict()
+    assert stored["representation"] == {"plugin": "rotations", "rotation": "expmap", "root": "deltas", "joints": None}
+    assert type(info).from_dict(json.loads(json.dumps(stored))).to_dict() == stored
 
 
 def test_compose_writes_bvh_that_decodes_the_generated_features(run, tmp_path):

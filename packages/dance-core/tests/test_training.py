@@ -37,7 +37,7 @@ def test_checkpoint_round_trip_and_metadata(tiny_recipe, tmp_path):
     recipe = tiny_recipe()
     result = train(recipe, out=str(tmp_path), quiet=True)
     ckpt = load_checkpoint(result.checkpoint)
-    assert ckpt.step == 40 and ckpt.motion["dim"] == 18 and ckpt.motion["fps"] == 20
+    assert ckpt.step == 40 and ckpt.motion.dim == 18 and ckpt.motion.fps == 20
     assert ckpt.recipe["model"] == recipe.model_dump(mode="json")["model"]
     assert "torch" in ckpt.versions and "dance-core" in ckpt.versions
     model = build_model(recipe, 18, {"music": 4})

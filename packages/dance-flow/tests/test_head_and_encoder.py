@@ -7,6 +7,7 @@ import math
 import pytest
 import torch
 
+from dance_core.data.motion_info import MotionInfo
 from dance_core.protocols import TrainContext
 from dance_flow.attention import RelativeBias, Transformer, relative_buckets
 from dance_flow.configs import (
@@ -244,7 +245,7 @@ def test_a_generation_only_option_does_not_stop_a_checkpoint_from_loading(tmp_pa
     streams = {"music": torch.randn(9, 81, generator=rng).numpy(), "beat": torch.randn(9, 6, generator=rng).numpy()}
     stats = NormStats.fit([Clip("a", torch.randn(9, 6, generator=rng).numpy(), streams)])
     path = tmp_path / "model.safetensors"
-    save_checkpoint(path, model, stats, recipe, {"dim": 6, "fps": 20}, 1)
+    save_checkpoint(path, model, stats, recipe, MotionInfo(dim=6, fps=20.0), 1)
     ckpt = load_checkpoint(path)
     check_matches(ckpt, load_recipe("transflower-small", [*small, "model.head.sample_correlation=0.95"]))
     # the beat tracker is an input option of the same kind: the beat columns mean the same whoever tracked them

@@ -54,7 +54,7 @@ def test_small_recipe_trains_on_body25_keypoints_and_writes_them(tmp_path):
         ],
     )
     trainer = Trainer(recipe, tmp_path / "run", quiet=True)
-    assert trainer.model.head.out.out_features == trainer.motion_info["dim"] >= 50  # 25 joints × (x, y) + root
+    assert trainer.model.head.out.out_features == trainer.motion_info.dim >= 50  # 25 joints × (x, y) + root
     result = trainer.run()
     assert result.last_loss < result.first_loss
     paths = compose(

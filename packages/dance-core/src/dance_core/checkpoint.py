@@ -20,8 +20,9 @@ from safetensors import SafetensorError
 from safetensors.torch import load_file
 
 from dance_core.atomic import atomic_path
+from dance_core.data.motion_info import MotionInfo
 from dance_core.data.stats import NormStats
-from dance_core.errors import CheckpointError
+from dance_core.errors import CheckpointError, DataError
 from dance_core.recipe.schema import Recipe
 
 FORMAT = "dance-checkpoint/1"
@@ -115,7 +116,7 @@ class Checkpoint:
     weights: dict[str, torch.Tensor]
     stats: NormStats
     recipe: dict[str, Any]
-    motion: dict[str, Any]
+    motion: MotionInfo
     versions: dict[str, str]
     step: int
     run: str | None = None  #: the training run's id (None in checkpoints written before run ids)
@@ -126,7 +127,7 @@ def save_checkpoint(
     model: torch.nn.Module,
     stats: NormStats,
     recipe: Recipe,
-    motion: dict[str, Any],
+    motion: MotionInfo,
     step: int,
     run: str | None = None,
 ) -> None:
@@ -136,7 +137,7 @@ def save_checkpoint(
     metadata = {
         "format": FORMAT,
         "recipe": _dumps(recipe.model_dump(mode="json")),
-        "motion": _dumps(motion),
+        "motion": _dumps(motion.to_dict()),
         "versions": _dumps(versions()),
         "step": str(step),
     }
@@ -153,11 +154,11 @@ def load_checkpoint(path: str | Path) -> Checkpoint:
         raise CheckpointError(f"{path}: not a dance checkpoint (format {meta.get('format')!r})")
     try:
         recipe = json.loads(meta["recipe"])
-        motion = json.loads(meta["motion"])
+        motion = MotionInfo.from_dict(json.loads(meta["motion"]))
         found = json.loads(meta.get("versions", "{}"))
         step = int(meta.get("step", "0"))
         stats = NormStats.from_arrays({k: v.numpy() for k, v in tensors.items() if k.startswith("norm.")})
-    except (KeyError, ValueError) as exc:
+    except (KeyError, ValueError, DataError) as exc:
         raise CheckpointError(f"{path}: corrupt checkpoint metadata ({exc})") from None
     weights = {k[len("model.") :]: v for k, v in tensors.items() if k.startswith("model.")}
     return Checkpoint(path, weights, stats, recipe, motion, found, step, meta.get("run"))

@@ -14,7 +14,7 @@ from dance_core.checkpoint import Checkpoint, check_matches, load_checkpoint, lo
 from dance_core.contexts import DEFAULT_FORMATS, FormatOptions
 from dance_core.data.features import FeatureStack, load_audio
 from dance_core.data.files import read_motion_file
-from dance_core.data.prepare import decode_motion, encode_seed, stored_representation
+from dance_core.data.motion_info import MotionInfo
 from dance_core.errors import DanceError, DataError, RecipeError
 from dance_core.media import TextSpan, frame_count
 from dance_core.model import ComposedModel, build_model
@@ -43,14 +43,14 @@ def seed_motion(
 ) -> np.ndarray:
     """Normalized seed ``(frames, D)``: the mean pose for ``rest``/None, else a motion file (read with its
     format's options in ``formats``)."""
-    dim = ckpt.motion["dim"]
+    dim = ckpt.motion.dim
     if spec in (None, "rest"):
         return np.zeros((frames, dim), np.float32)
-    motion = encode_seed(ckpt.motion, read_motion_file(spec, registry, formats=formats), registry)
+    motion = ckpt.motion.encode(read_motion_file(spec, registry, formats=formats), registry)
     if motion.values.shape[1] != dim:
         raise DataError(f"{spec}: seed motion has {motion.values.shape[1]} channels, the model {dim}")
-    if abs(motion.fps - ckpt.motion["fps"]) > 1e-6:
-        raise DataError(f"{spec}: seed motion is at {motion.fps:g} fps, the model at {ckpt.motion['fps']:g}")
+    if abs(motion.fps - ckpt.motion.fps) > 1e-6:
+        raise DataError(f"{spec}: seed motion is at {motion.fps:g} fps, the model at {ckpt.motion.fps:g}")
     values = ckpt.stats.motion.apply(motion.values)
     if len(values) < frames:
         values = np.concatenate([np.repeat(values[:1], frames - len(values), axis=0), values])
@@ -104,7 +104,7 @@ def load_model(
     ckpt = load_checkpoint(checkpoint)
     check_matches(ckpt, recipe)
     stack = FeatureStack(recipe)
-    model = build_model(recipe, ckpt.motion["dim"], stack.dims())
+    model = build_model(recipe, ckpt.motion.dim, stack.dims())
     load_weights(model, ckpt)
     return model.to(device).eval(), ckpt, stack
 
@@ -274,7 +274,7 @@ def write_song(
     with OutputSet() as files:
         for k, stem in enumerate(stems):
             values = ckpt.stats.motion.invert(motion[k, : song.n_frames])
-            data = decode_motion(ckpt.motion, values, recipe.fps, registry)
+            data = ckpt.motion.decode(values, recipe.fps, registry)
             if c.ground and data.skeleton_motion is not None:
                 data = grounded(data, ckpt.motion, registry)
             data.meta["audio_path"] = song.path
@@ -385,7 +385,7 @@ def _output_stems(paths: list[str], samples: int) -> list[list[str]]:
     return stems
 
 
-def grounded(data: MotionData, info: dict, registry: Registry) -> MotionData:
+def grounded(data: MotionData, info: MotionInfo, registry: Registry) -> MotionData:
     """A decoded skeletal dance on the floor with its feet pinned in contact (``compose.ground``),
     its frame array encoded again from the grounded motion."""
     from dance_core.motion.grounding import ground
@@ -394,7 +394,7 @@ def grounded(data: MotionData, info: dict, registry: Registry) -> MotionData:
     data.meta["grounding"] = report.summary()
     if report.skipped:
         return data
-    rep, _ = stored_representation(info, registry)
+    rep = info.build_representation(registry)
     return replace(data, values=rep.encode(motion).astype(data.values.dtype), skeleton_motion=motion)
 
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from dance_core.contexts import DatasetContext
 from dance_core.data.features import FeatureStack, load_audio
+from dance_core.data.motion_info import MotionInfo
 from dance_core.data.sources import Clip, ClipSource
 from dance_core.errors import DataError, RecipeError
 from dance_core.protocols import MotionData
@@ -57,46 +58,16 @@ def encode_sources(recipe: Recipe, sources: list[ClipSource]) -> list[ClipSource
     return out
 
 
-def motion_info(recipe: Recipe, sources: list[ClipSource], dim: int) -> dict[str, Any]:
+def motion_info(recipe: Recipe, sources: list[ClipSource], dim: int) -> MotionInfo:
     """What a checkpoint stores about its motion: width, fps, channels, representation and skeleton."""
     channels = sources[0].motion.channels
-    info: dict[str, Any] = {"dim": dim, "fps": recipe.fps, "channels": list(channels) if channels else None}
-    if recipe.motion is not None:
-        config = recipe.motion.config  # validated, defaults filled in: decoding never depends on today's defaults
-        options = config.model_dump(mode="json") if config is not None else recipe.motion.options()
-        info["representation"] = {"plugin": recipe.motion.plugin, **options}
-        info["skeleton"] = sources[0].motion.skeleton_motion.skeleton.to_dict()
-    return info
-
-
-def decode_motion(info: dict[str, Any], values: np.ndarray, fps: float, registry: Registry) -> MotionData:
-    """Generated features as ``MotionData``, with the skeletal motion decoded when the checkpoint has a
-    representation (so skeleton formats such as BVH can write it)."""
-    data = MotionData(values, fps, info.get("channels"))
-    if info.get("representation"):
-        rep, skeleton = stored_representation(info, registry)
-        data.skeleton_motion = rep.decode(values, skeleton, fps)
-    return data
-
-
-def stored_representation(info: dict[str, Any], registry: Registry) -> tuple[Any, Any]:
-    """The representation and skeleton recorded in a checkpoint's motion info."""
-    from dance_core.motion.skeleton import Skeleton
-
-    spec = info["representation"]
-    options = {k: v for k, v in spec.items() if k != "plugin"}
-    rep = registry.create("motion-representation", spec["plugin"], options)
-    return rep, Skeleton.from_dict(info["skeleton"])
-
-
-def encode_seed(info: dict[str, Any], motion: MotionData, registry: Registry) -> MotionData:
-    """A seed motion read from a skeletal file, as the checkpoint's features at its fps."""
-    if motion.skeleton_motion is None or not info.get("representation"):
-        return motion
-    rep, skeleton = stored_representation(info, registry)
-    where = motion.meta.get("path", "seed motion")
-    skel_motion = motion.skeleton_motion.conformed(skeleton, where).resample(info["fps"])
-    return MotionData(rep.encode(skel_motion), info["fps"], rep.channels(skeleton), motion.meta, skel_motion)
+    info = MotionInfo(dim, recipe.fps, tuple(channels) if channels else None)
+    if recipe.motion is None:
+        return info
+    config = recipe.motion.config  # validated, defaults filled in: decoding never depends on today's defaults
+    options = config.model_dump(mode="json") if config is not None else recipe.motion.options()
+    return replace(info, representation=recipe.motion.plugin, options=options,
+                   skeleton=sources[0].motion.skeleton_motion.skeleton)
 
 
 def motion_file(source: ClipSource) -> str:
