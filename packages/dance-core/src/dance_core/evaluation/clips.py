@@ -9,34 +9,6 @@ import numpy as np
 from dance_core.errors import DataError
 from dance_core.protocols import JointClip
 
-#: SMPL's 24 joints in body-model order, as the AIST++ feature code names them
-SMPL_AIST_NAMES = (
-    "root",
-    "lhip",
-    "rhip",
-    "belly",
-    "lknee",
-    "rknee",
-    "spine",
-    "lankle",
-    "rankle",
-    "chest",
-    "ltoes",
-    "rtoes",
-    "neck",
-    "linshoulder",
-    "rinshoulder",
-    "head",
-    "lshoulder",
-    "rshoulder",
-    "lelbow",
-    "relbow",
-    "lwrist",
-    "rwrist",
-    "lhand",
-    "rhand",
-)
-
 
 def resample(positions: np.ndarray, fps_from: float, fps_to: float) -> np.ndarray:
     """Linearly resample ``(T, J, 3)`` positions from one frame rate to another (same duration)."""
@@ -122,7 +94,7 @@ def smpl_layout(clip: JointClip, what: str) -> np.ndarray:
 
 
 def _smpl_index(names: list[str]) -> list[int] | None:
-    from dance_core.motion.skeletons import SMPL_NAMES
+    from dance_core.motion.skeletons import SMPL_AIST_NAMES, SMPL_NAMES
 
     for candidates in (SMPL_NAMES, SMPL_AIST_NAMES):
         lowered = [n.lower() for n in names]

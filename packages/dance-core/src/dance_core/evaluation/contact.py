@@ -16,18 +16,11 @@ from __future__ import annotations
 import numpy as np
 
 from dance_core.errors import DataError
+from dance_core.motion.skeletons import FEET_BY_NAME, SMPL_FEET
 from dance_core.protocols import JointClip
 
 EDGE_FPS = 30.0
 SCALE = 10_000.0
-#: SMPL-24 indices of (left ankle, left toe, right ankle, right toe)
-SMPL_FEET = (7, 10, 8, 11)
-#: the same joints by name in the other skeletons we know
-FEET_BY_NAME = (
-    ("L_Ankle", "L_Foot", "R_Ankle", "R_Foot"),
-    ("lankle", "ltoes", "rankle", "rtoes"),
-    ("LeftFoot", "LeftToeBase", "RightFoot", "RightToeBase"),
-)
 
 
 def foot_indices(clip: JointClip, feet: list[str] | None = None) -> tuple[int, int, int, int]:

@@ -23,7 +23,8 @@ from __future__ import annotations
 import numpy as np
 
 from dance_core.errors import DataError
-from dance_core.evaluation.clips import SMPL_AIST_NAMES, resample, smpl_layout
+from dance_core.evaluation.clips import resample, smpl_layout
+from dance_core.motion.skeletons import SMPL_AIST_NAMES
 from dance_core.protocols import JointClip
 
 #: template body measures (metres) from the reference's fixed joint coordinates

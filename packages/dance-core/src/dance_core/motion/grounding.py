@@ -31,12 +31,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.ndimage import gaussian_filter1d, maximum_filter1d, median_filter, minimum_filter1d
 
-from dance_core.evaluation.contact import FEET_BY_NAME
 from dance_core.motion.fk import forward_kinematics
 from dance_core.motion.ik import two_bone_ik
 from dance_core.motion.motion import Motion
 from dance_core.motion.rotations import quat_conj, quat_mul, quat_rotate
 from dance_core.motion.skeleton import Skeleton
+from dance_core.motion.skeletons import FEET_BY_NAME
 
 _UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 

@@ -13,6 +13,41 @@ SMPL_NAMES = [
     "R_Elbow", "L_Wrist", "R_Wrist", "L_Hand", "R_Hand",
 ]
 SMPL_PARENTS = [-1, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 9, 9, 12, 13, 14, 16, 17, 18, 19, 20, 21]
+#: SMPL's 24 joints in body-model order, as the AIST++ feature code names them
+SMPL_AIST_NAMES = (
+    "root",
+    "lhip",
+    "rhip",
+    "belly",
+    "lknee",
+    "rknee",
+    "spine",
+    "lankle",
+    "rankle",
+    "chest",
+    "ltoes",
+    "rtoes",
+    "neck",
+    "linshoulder",
+    "rinshoulder",
+    "head",
+    "lshoulder",
+    "rshoulder",
+    "lelbow",
+    "relbow",
+    "lwrist",
+    "rwrist",
+    "lhand",
+    "rhand",
+)
+#: SMPL-24 indices of (left ankle, left toe, right ankle, right toe)
+SMPL_FEET = (7, 10, 8, 11)
+#: the same joints by name in the other skeletons we know (SMPL's, AIST++'s, Mixamo's)
+FEET_BY_NAME = (
+    ("L_Ankle", "L_Foot", "R_Ankle", "R_Foot"),
+    ("lankle", "ltoes", "rankle", "rtoes"),
+    ("LeftFoot", "LeftToeBase", "RightFoot", "RightToeBase"),
+)
 #: Our default body, from published anthropometry: David A. Winter, *Biomechanics and Motor Control of
 #: Human Movement* (4th ed., Wiley 2009), Fig. 4.1, segment lengths and joint heights as fractions of
 #: body height H (after Drillis & Contini, 1966). Values are (x, y, z) in units of H, Y up, +X to the
