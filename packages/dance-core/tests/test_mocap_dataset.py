@@ -101,3 +101,28 @@ training: {{steps: 4, batch_size: 4, val_every: 4, checkpoint_every: 4}}
 """)
     result = train(load_recipe(recipe), out=str(tmp_path / "run"), quiet=True)
     assert np.isfinite(result.last_loss) and result.checkpoint.exists()
+
+
+def test_synthetic_dance_chains_real_moves_from_a_mocap_folder(takes, tmp_path, monkeypatch):
+    """``synthetic-dance`` with ``mocap:`` dances the synthesized songs with the takes' real moves
+    (no move labels), deterministically; ``dance synth --mocap`` writes the same kind of dataset."""
+    from dance_core.cli.main import main
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    options = {"songs": 2, "seconds": 8, "sample_rate": 8000, "mocap": str(takes)}
+    clips = get_registry().create("dataset", "synthetic-dance", options, DatasetContext(fps=30.0)).clips()
+    assert [c.meta["dancer"] for c in clips] == ["real moves", "real moves"] and clips[0].texts == ()
+    again = get_registry().create("dataset", "synthetic-dance", options, DatasetContext(fps=30.0)).clips()
+    np.testing.assert_array_equal(clips[1].motion.values, again[1].motion.values)
+    procedural = get_registry().create("dataset", "synthetic-dance", {**options, "mocap": None},
+                                       DatasetContext(fps=30.0)).clips()
+    np.testing.assert_array_equal(procedural[0].audio.samples, clips[0].audio.samples)  # same songs
+    motion = clips[0].motion.skeleton_motion
+    assert motion.skeleton.same_topology(dance24()) and motion.n_frames == 240
+    assert np.ptp(motion.positions()[:, dance24().index("L_Wrist")], axis=0).max() > 0.1  # it dances
+    out = tmp_path / "synth"
+    assert main(["-q", "synth", "--out", str(out), "--songs", "1", "--seconds", "6", "--rate", "8000", "--fps", "30",
+                 "--mocap", str(takes), "--mocap-exclude", "mixamo_*"]) == 0
+    written = BvhFormat().read_motion(out / "synth-0000.bvh")
+    assert written.n_frames == 180 and (out / "synth-0000.texts").read_text().strip() == ""
+    assert main(["synth", "--out", str(out), "--mocap", str(tmp_path / "nowhere")]) == 1

@@ -10,7 +10,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from dance_core.cli.checks import bounded_number
+from dance_core.checks import bounded_number
 
 
 def add_parser(subparsers) -> None:
@@ -43,6 +43,12 @@ def add_parser(subparsers) -> None:
                    help="with --music: beat tracker (madmom's model files are non-commercial)")
     p.add_argument("--fps", type=bounded_number(float, 0.0, 1000.0, above=True), default=60.0,
                    help="dataset motion frame rate, up to 1000")
+    p.add_argument("--mocap", metavar="DIR",
+                   help="with --out: chain the dances from real moves, the motion-capture takes in DIR (any rig; "
+                   "a motion graph cut at the dancers' accents, warped onto the beats) instead of the procedural "
+                   "dancer; no move labels")
+    p.add_argument("--mocap-exclude", nargs="+", default=[], metavar="PATTERN",
+                   help="file name patterns of takes in --mocap to leave out (e.g. held-out takes)")
     p.add_argument("--jobs", type=bounded_number(int, 1, 256), default=1, help="dataset worker processes, 1-256")
     p.add_argument("--bpm", type=bounded_number(float, 20.0, 400.0), default=120.0,
                    help="click-track tempo in beats per minute, 20-400")
@@ -56,7 +62,7 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """A click track with beats every 60/bpm seconds (downbeat every 4th), or a dataset (``--out DIR``)."""
-    from dance_core.cli.checks import check_output_dir, check_output_file
+    from dance_core.checks import check_output_dir, check_output_file
     from dance_core.errors import DanceError
 
     if args.out is not None and args.out_dir is not None:
@@ -66,6 +72,8 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.music and args.out_dir is None:
         raise DanceError("synth: --music needs --out DIR (the folder to write the dances into)")
+    if args.mocap is not None and (args.out_dir is None or not Path(args.mocap).is_dir()):
+        raise DanceError(f"--mocap {args.mocap}: needs --out DIR and a folder of motion files")
     if args.out_dir is not None:
         if args.music:
             for song in args.music:
@@ -110,7 +118,8 @@ def write_dances(args: Any) -> int:
             raise DanceError("synth: --dancers and --homogeneous are for synthetic songs (--songs), not --music")
         if not (1 <= args.dances <= 1000) or args.fps <= 0:
             raise DanceError("synth: need 1 <= --dances <= 1000 and --fps > 0")
-        names = write_music_dances(args.out_dir, args.music, args.dances, args.seed, args.fps, args.tracker)
+        names = write_music_dances(args.out_dir, args.music, args.dances, args.seed, args.fps, args.tracker,
+                                   args.mocap, tuple(args.mocap_exclude))
         print(f"{args.out_dir}: {len(names)} dances ({names[0]} ... {names[-1]}): song .bvh .beats .texts .sections")
         return 0
     seconds = 60.0 if args.seconds is None else args.seconds
@@ -121,7 +130,8 @@ def write_dances(args: Any) -> int:
     except ValueError as exc:
         raise DanceError(f"synth: --dancers: {exc}") from exc
     names = write_dataset(args.out_dir, args.songs, args.seed, seconds, args.fps, rate=args.rate,
-                          dances_per_song=args.dances, jobs=max(1, args.jobs), dancers=chosen, homogeneous=homogeneous)
+                          dances_per_song=args.dances, jobs=max(1, args.jobs), dancers=chosen, homogeneous=homogeneous,
+                          mocap=args.mocap, mocap_exclude=tuple(args.mocap_exclude))
     what = f"{args.songs} songs x {args.dances} dances" if args.dances > 1 else f"{len(names)} songs"
     print(f"{args.out_dir}: {what} ({names[0]} ... {names[-1]}): .wav .bvh .beats .texts .sections")
     return 0

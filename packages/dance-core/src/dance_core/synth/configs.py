@@ -30,6 +30,13 @@ class SyntheticDanceConfig(ComponentConfig):
     )
     homogeneous: bool = Field(False, description="the control set: every dance by the first dancer, in one style "
                               "and one fixed routine (a song's dances are then the same)")
+    mocap: str | None = Field(
+        None, json_schema_extra={"path": True},
+        description="a folder of motion-capture takes (any rig): dances are chained from these real moves "
+        "(synth.motion_graph) instead of the procedural dancer; relative to the recipe")
+    mocap_files: list[str] | None = Field(None, description="file name patterns of the takes to use (default all)")
+    mocap_exclude: list[str] = Field(default_factory=list, description="file name patterns of takes to leave out "
+                                     "(held out for evaluation)")
 
     @field_validator("dancers")
     @classmethod

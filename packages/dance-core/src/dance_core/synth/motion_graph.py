@@ -103,11 +103,17 @@ class MotionGraph:
                 self.successor[i] = i + 1
         starts = np.stack([self.features[s.take][s.start] for s in self.segments])
         ends = np.stack([self.features[s.take][s.stop] for s in self.segments])
-        d = np.sqrt(((ends[:, None, :] - starts[None, :, :]) ** 2).mean(-1))
-        np.fill_diagonal(d, np.inf)
         k = min(o.neighbours, len(self.segments) - 1)
-        self.transitions = np.argsort(d, axis=1)[:, :k]
-        self.cost = np.take_along_axis(d, self.transitions, axis=1)
+        self.transitions = np.zeros((len(ends), k), int)
+        self.cost = np.zeros((len(ends), k))
+        sq = (starts**2).sum(1)
+        for a in range(0, len(ends), 256):  # in blocks: the full matrix of a large graph would not fit
+            e = ends[a:a + 256]
+            d = np.sqrt(np.maximum((e**2).sum(1)[:, None] + sq[None] - 2 * e @ starts.T, 0.0) / starts.shape[1])
+            d[np.arange(len(e)), np.arange(a, a + len(e))] = np.inf
+            nearest = np.argsort(d, axis=1)[:, :k]
+            self.transitions[a:a + len(e)] = nearest
+            self.cost[a:a + len(e)] = np.take_along_axis(d, nearest, axis=1)
 
     def next_segment(self, i: int, rng: np.random.Generator, leave_take: bool) -> tuple[int, bool]:
         """The segment after ``i``: its natural successor (unless leaving its take) or a transition,
