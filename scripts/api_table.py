@@ -32,7 +32,7 @@ MODULES = {
     "dance_core.data.features": "helpers",
     "dance_core.atomic": "helpers",
     "dance_core.row_generators": "per-row random streams (heads drawing noise)",
-    "dance_core.cli.checks": "command-line checks (`register_commands`)",
+    "dance_core.checks": "command-line checks (`register_commands`)",
 }
 ORDER = ["writing a plugin", "protocols", *dict.fromkeys(MODULES.values())]
 

@@ -47,7 +47,7 @@ _LAZY: dict[str, str] = {
     # command-line checks for plugin commands (register_commands): ranges while parsing, paths before work
     **dict.fromkeys(
         ("bounded_number", "check_input_file", "check_input_dir", "check_output_file", "check_output_dir"),
-        "dance_core.cli.checks",
+        "dance_core.checks",
     ),
 }
 
@@ -80,7 +80,7 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # for type checkers and editors; at run time the names load lazily
     from dance_core.atomic import atomic_path, write_bytes, write_text  # noqa: F401
-    from dance_core.cli.checks import (  # noqa: F401
+    from dance_core.checks import (  # noqa: F401
         bounded_number,
         check_input_dir,
         check_input_file,

@@ -52,7 +52,8 @@ def compose(args: Namespace) -> int:
 
 def _compose_inputs(args: Namespace, recipe) -> tuple[list[str] | None, str | None]:
     """The songs and checkpoint compose will read, and the folder it will write, checked before any work."""
-    from dance_core.cli.checks import check_input_dir, check_input_file, check_output_dir, check_smpl_model, warn
+    from dance_core.checks import check_input_dir, check_input_file, check_output_dir
+    from dance_core.cli.checks import check_smpl_model, warn
 
     c = recipe.compose
     where = "--music" if args.music else "compose.music"
@@ -139,7 +140,7 @@ def train(args: Namespace) -> int:
     prints, and an error every rank stopped with is printed once)."""
     import os
 
-    from dance_core.cli.checks import check_output_dir
+    from dance_core.checks import check_output_dir
     from dance_core.errors import DanceError
     from dance_core.train import run_dir_for
 
@@ -262,7 +263,7 @@ def recipe_schema(args: Namespace) -> int:
     from dance_core.registry import get_registry
 
     if args.out:
-        from dance_core.cli.checks import check_output_file
+        from dance_core.checks import check_output_file
 
         check_output_file(args.out, "-o")
     text = json.dumps(recipe_json_schema(get_registry()), indent=2) + "\n"

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import argparse
 
-from dance_core.cli.checks import bounded_number, smpl_model_option
+from dance_core.checks import bounded_number
+from dance_core.cli.checks import smpl_model_option
 
 
 def add_parser(subparsers) -> None:
@@ -56,7 +57,8 @@ def check_args(args: argparse.Namespace) -> None:
     """Folders read and files written, checked before any clip is loaded."""
     from pathlib import Path
 
-    from dance_core.cli.checks import check_input_dir, check_output_dir, check_output_file, check_smpl_model
+    from dance_core.checks import check_input_dir, check_output_dir, check_output_file
+    from dance_core.cli.checks import check_smpl_model
 
     generated = check_input_dir(args.generated, "--generated", "folder of motion files")
     reference = check_input_dir(args.reference, "--reference", "folder of motion files")

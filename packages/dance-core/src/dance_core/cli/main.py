@@ -8,8 +8,9 @@ import os
 import sys
 import textwrap
 
+from dance_core.checks import bounded_number
 from dance_core.cli import commands
-from dance_core.cli.checks import bounded_number, shard_arg, smpl_model_option, use_smpl_model
+from dance_core.cli.checks import shard_arg, smpl_model_option, use_smpl_model
 from dance_core.errors import DanceError
 from dance_core.plugins import DEFAULT_PLUGINS, ENV_STRICT
 

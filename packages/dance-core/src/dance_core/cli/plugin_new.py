@@ -88,7 +88,7 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check the name and the folder, write the package and say what to do next."""
-    from dance_core.cli.checks import check_output_dir
+    from dance_core.checks import check_output_dir
 
     check_name(args.name, args.kind)
     check_output_dir(args.out, "--out")

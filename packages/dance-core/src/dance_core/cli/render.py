@@ -8,7 +8,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from dance_core.cli.checks import bounded_number, smpl_model_option
+from dance_core.checks import bounded_number
+from dance_core.cli.checks import smpl_model_option
 
 #: what ``-o`` may end in (the suffix picks the kind of preview)
 SUFFIXES = (".gif", ".mp4", ".html")
@@ -41,7 +42,7 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check every output and input, then render every ``--out`` file (with a progress bar for GIF/MP4)."""
-    from dance_core.cli.checks import check_input_file, check_output_file
+    from dance_core.checks import check_input_file, check_output_file
     from dance_core.data.files import read_motion_file
     from dance_core.errors import DataError
     from dance_core.registry import get_registry

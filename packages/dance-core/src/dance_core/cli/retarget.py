@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from dance_core.cli.checks import bounded_number
+from dance_core.checks import bounded_number
 
 #: built-in target skeletons by name
 BUILT_IN = ("dance24", "transflower21")
@@ -46,7 +46,7 @@ def add_parser(subparsers) -> None:
 
 def _target_skeleton(spec: str, registry):
     """The skeleton to retarget onto: a built-in by name or the skeleton of a motion file."""
-    from dance_core.cli.checks import check_input_file
+    from dance_core.checks import check_input_file
     from dance_core.data.files import read_motion_file
     from dance_core.errors import DataError
     from dance_core.motion import skeletons
@@ -62,7 +62,7 @@ def _target_skeleton(spec: str, registry):
 
 def run(args: argparse.Namespace) -> int:
     """Check the inputs, maps and output, then retarget and write atomically."""
-    from dance_core.cli.checks import check_input_file, check_output_file
+    from dance_core.checks import check_input_file, check_output_file
     from dance_core.data.files import read_motion_file
     from dance_core.errors import DataError
     from dance_core.motion.retarget import retarget, rig_frames

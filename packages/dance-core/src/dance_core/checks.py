@@ -1,0 +1,168 @@
+"""Input checks every ``dance`` command (core's and plugins' ``register_commands``) runs on its arguments
+before any heavy work; public (``dance_core.bounded_number``, ``check_input_file``...), so the CLI and
+``dance_core``'s face import them from here.
+
+Numbers are checked while parsing (:func:`bounded_number` as an argparse ``type=``), so a bad value is a
+usage error naming its option; files and folders are checked by the command before it starts, each
+failure one :class:`~dance_core.errors.DanceError` line naming the argument. No check leaves anything
+behind: writability is probed with a temporary file that is removed at once, and an output folder is
+not created here (the command creates it when it writes).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import tempfile
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+from dance_core.errors import DanceError
+
+
+def _fmt(value: float) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def _range_text(low: float | None, high: float | None, above: bool, unit: str) -> str:
+    unit = f" {unit}" if unit else ""
+    if low is not None and high is not None:
+        if above:
+            return f"above {_fmt(low)} and at most {_fmt(high)}{unit}"
+        return f"between {_fmt(low)} and {_fmt(high)}{unit}"
+    if low is not None:
+        return f"{'above' if above else 'at least'} {_fmt(low)}{unit}"
+    return f"at most {_fmt(high)}{unit}" if high is not None else "a finite number"
+
+
+def bounded_number(
+    kind: type = float,
+    low: float | None = None,
+    high: float | None = None,
+    *,
+    above: bool = False,
+    unit: str = "",
+) -> Callable[[str], float]:
+    """An argparse ``type=`` that parses an int or float and keeps it within physical limits.
+
+    ``low``/``high`` are inclusive bounds (``above=True``: the value must be strictly above ``low``);
+    NaN and infinities are refused. A bad value becomes ``argument --opt: must be ..., got X``.
+    """
+    expected = _range_text(low, high, above, unit)
+
+    def parse(text: str) -> float:
+        try:
+            value = kind(text)
+        except (TypeError, ValueError):
+            word = "a whole number" if kind is int else "a number"
+            raise argparse.ArgumentTypeError(f"expected {word}, got {text!r}") from None
+        if isinstance(value, float) and not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"must be a finite number {expected}, got {text}")
+        too_low = low is not None and (value <= low if above else value < low)
+        if too_low or (high is not None and value > high):
+            raise argparse.ArgumentTypeError(f"must be {expected}, got {text}")
+        return value
+
+    parse.__name__ = kind.__name__  # what argparse names in its own messages
+    return parse
+
+
+def either(words: list[str]) -> str:
+    """``a``, ``a or b``, ``a, b or c``."""
+    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} or {words[-1]}"
+
+
+def _label(path: str | Path, option: str | None) -> str:
+    return f"{option} {path}" if option else str(path)
+
+
+def _article(what: str) -> str:
+    return f"an {what}" if what[:1] in "aeiou" else f"a {what}"
+
+
+def check_input_file(
+    path: str | Path, option: str | None = None, what: str = "file", in_folder: str | None = None
+) -> Path:
+    """``path`` if it names a readable, non-empty regular file; else one line naming ``option`` and the path.
+
+    ``in_folder``: a file name to suggest when a folder holding it is given instead (a run folder
+    given as a checkpoint: ``did you mean RUN/model.safetensors?``).
+    """
+    p = Path(path)
+    label = _label(path, option)
+    if not p.exists():
+        raise DanceError(f"{label}: {'broken link' if p.is_symlink() else what + ' not found'}")
+    if p.is_dir():
+        hint = ""
+        if in_folder and (p / in_folder).is_file():
+            hint = f" (did you mean {p / in_folder}?)"
+        raise DanceError(f"{label}: is a folder, not {_article(what)}{hint}")
+    if not p.is_file():
+        raise DanceError(f"{label}: is not a regular file (a pipe or a device), not {_article(what)}")
+    try:
+        with open(p, "rb"):
+            pass
+    except OSError as exc:
+        raise DanceError(f"{label}: cannot read {what} ({exc.strerror or exc})") from None
+    if p.stat().st_size == 0:
+        raise DanceError(f"{label}: {what} is empty")
+    return p
+
+
+def check_input_dir(path: str | Path, option: str | None = None, what: str = "folder") -> Path:
+    """``path`` if it names an existing folder; else one line naming ``option`` and the path."""
+    p = Path(path)
+    label = _label(path, option)
+    if not p.exists():
+        raise DanceError(f"{label}: {what} not found")
+    if not p.is_dir():
+        raise DanceError(f"{label}: is a file, not {_article(what)}")
+    return p
+
+
+def _writable_ancestor(folder: Path, label: str) -> Path:
+    """The nearest existing folder at or above ``folder``, after a probe proves it writable."""
+    current = Path(os.path.abspath(folder))
+    while not current.exists() and current.parent != current:
+        current = current.parent
+    if not current.is_dir():
+        raise DanceError(f"{label}: {current} is a file, not a folder")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".dance-probe-", dir=current)
+    except OSError as exc:
+        raise DanceError(f"{label}: cannot write in {current} ({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(probe)
+    return current
+
+
+def check_output_file(
+    path: str | Path, option: str | None = None, suffixes: Iterable[str] | None = None
+) -> Path:
+    """``path`` if a file can be written there: not a folder, with an allowed suffix, under a folder that
+    exists or can be created and is writable. Nothing is created."""
+    p = Path(path)
+    label = _label(path, option)
+    if not str(path).strip():
+        raise DanceError(f"{option or 'output'}: empty file name")
+    allowed = [s.lower() for s in suffixes or ()]
+    if p.is_dir():
+        example = f" (e.g. {p / ('out' + allowed[0])})" if allowed else ""
+        raise DanceError(f"{label}: is a folder; give a file name inside it{example}")
+    if allowed and p.suffix.lower() not in allowed:
+        raise DanceError(f"{label}: the file name must end in {either(allowed)}")
+    _writable_ancestor(p.parent, label)
+    return p
+
+
+def check_output_dir(path: str | Path, option: str | None = None) -> Path:
+    """``path`` if it is a writable folder, or can be created as one; nothing is created."""
+    p = Path(path)
+    label = _label(path, option)
+    if not str(path).strip():
+        raise DanceError(f"{option or 'output'}: empty folder name")
+    if p.exists() and not p.is_dir():
+        raise DanceError(f"{label}: is a file, not a folder")
+    _writable_ancestor(p, label)
+    return p
