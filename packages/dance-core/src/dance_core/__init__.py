@@ -9,17 +9,12 @@ torch, no numpy until a protocol or media type is touched).
 from __future__ import annotations
 
 import importlib
-from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
 from dance_core.config import ComponentConfig
 from dance_core.errors import CheckpointError, DanceError, DataError, PluginError, RecipeError, TrainingError
 from dance_core.hookspecs import hookimpl
-
-try:
-    __version__ = version("dance-core")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.0.0"
+from dance_core.version import __version__
 
 #: public name -> the module that defines it (imported on first use)
 _LAZY: dict[str, str] = {

@@ -185,7 +185,7 @@ def check_hooks(pm: DancePluginManager) -> None:
 
 def make_plugin_manager(load_entry_points: bool = True, strict: bool | None = None) -> DancePluginManager:
     """Build a manager with core's default plugins registered and (optionally) the installed ones."""
-    from dance_core import __version__
+    from dance_core.version import __version__
 
     pm = DancePluginManager(strict=strict_from_env() if strict is None else strict)
     pm.add_hookspecs(hookspecs)
