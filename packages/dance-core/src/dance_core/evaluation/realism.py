@@ -36,14 +36,13 @@ fast (:func:`dance_core.evaluation.quality.wrong_tempo_grid`).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
 
 from dance_core.errors import DataError
 from dance_core.evaluation.frechet import frechet_distance
 from dance_core.evaluation.quality import beat_phases, wrong_tempo_grid
+from dance_core.motion.body import Body, body_beats, hip_heading, leg_length
 
 #: the statistics of :func:`window_statistics`, in column order
 STATISTICS = ("knee_bend", "elbow_bend", "pelvis_bob", "root_travel", "turning", "hand_speed", "foot_speed",
@@ -51,49 +50,11 @@ STATISTICS = ("knee_bend", "elbow_bend", "pelvis_bob", "root_travel", "turning",
 WINDOW, HOP = 4.0, 1.0
 #: the other foot must be this much lower (per leg) for the weight to change to it
 WEIGHT_MARGIN = 0.03
-_NEEDED = ("Pelvis", "L_Hip", "R_Hip", "L_Knee", "R_Knee", "L_Ankle", "R_Ankle", "L_Shoulder", "R_Shoulder",
-           "L_Elbow", "R_Elbow", "L_Wrist", "R_Wrist", "Head")
-
-
-@dataclass(frozen=True)
-class Body:
-    """Canonical joint indices of a clip's joints (see :mod:`dance_core.motion.rig_maps`)."""
-
-    joints: dict[str, int]
-
-    @classmethod
-    def of(cls, names: Sequence[str], where: str = "clip") -> Body:
-        """The canonical joints among ``names``; a one-line error naming what is missing."""
-        from dance_core.motion.rig_maps import detect_map
-
-        found = detect_map(list(names), where).joints
-        missing = [n for n in _NEEDED if n not in found]
-        if missing:
-            raise DataError(f"{where}: realism statistics need the joints {', '.join(missing)}")
-        return cls(found)
-
-    def __getitem__(self, name: str) -> int:
-        return self.joints[name]
-
-
-def leg_length(positions: np.ndarray, body: Body) -> float:
-    """The leg length of a dancer: the median height of its hips' midpoint over the frames when it stands
-    tallest (the 90th percentile), measured from its lowest ankle less the ankle's share (6 %)."""
-    hips = (positions[:, body["L_Hip"], 1] + positions[:, body["R_Hip"], 1]) / 2
-    ankles = np.minimum(positions[:, body["L_Ankle"], 1], positions[:, body["R_Ankle"], 1])
-    standing = np.percentile(hips - ankles, 90)
-    return float(max(standing * 1.06, 1e-6))
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     cos = (a * b).sum(-1) / np.maximum(np.linalg.norm(a, axis=-1) * np.linalg.norm(b, axis=-1), 1e-12)
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
-
-
-def _heading(positions: np.ndarray, body: Body) -> np.ndarray:
-    """Per-frame heading angle (radians) of the hips' left-right line on the floor."""
-    left = positions[:, body["L_Hip"]] - positions[:, body["R_Hip"]]
-    return np.unwrap(np.arctan2(-left[:, 2], left[:, 0]))
 
 
 def frame_measures(positions: np.ndarray, fps: float, body: Body, leg: float) -> dict[str, np.ndarray]:
@@ -106,7 +67,7 @@ def frame_measures(positions: np.ndarray, fps: float, body: Body, leg: float) ->
                                   p[:, j(f"{s}_Wrist")] - p[:, j(f"{s}_Elbow")]) for s in "LR"], axis=0)
     hips = (p[:, j("L_Hip")] + p[:, j("R_Hip")]) / 2
     step = np.linalg.norm(np.diff(hips[:, [0, 2]], axis=0), axis=-1) * fps / leg
-    heading = _heading(p, body)
+    heading = hip_heading(p, body)
     turn = np.abs(np.diff(heading)) * fps
     pelvis = p[:, j("Pelvis")]
     hand = np.mean([np.linalg.norm(np.diff(p[:, j(f"{s}_Wrist")] - pelvis, axis=0), axis=-1) for s in "LR"],
@@ -170,34 +131,6 @@ def realism_distance(generated: np.ndarray, reference: np.ndarray) -> float:
     sd = np.where(sd > 1e-9, sd, 1.0)
     a, b = (generated - mu) / sd, (reference - mu) / sd
     return frechet_distance(a.mean(0), np.cov(a, rowvar=False), b.mean(0), np.cov(b, rowvar=False))
-
-
-def body_energy(positions: np.ndarray, fps: float, body: Body, leg: float, smooth: float = 0.05) -> np.ndarray:
-    """``(T,)`` the summed speed (per leg) of the wrists, ankles and head relative to the pelvis, in the
-    body's heading frame: what the body itself moves, not where the whole figure goes or faces."""
-    p = np.asarray(positions, np.float64)
-    rel = p[:, [body[n] for n in ("L_Wrist", "R_Wrist", "L_Ankle", "R_Ankle", "Head")]] - p[:, None, body["Pelvis"]]
-    heading = _heading(p, body)
-    c, s = np.cos(heading)[:, None], np.sin(heading)[:, None]
-    local = np.stack([c * rel[..., 0] - s * rel[..., 2], rel[..., 1], s * rel[..., 0] + c * rel[..., 2]], axis=-1)
-    speed = np.linalg.norm(np.gradient(local, axis=0), axis=-1).sum(1) * fps / leg
-    return gaussian_filter1d(speed, smooth * fps) if smooth > 0 else speed
-
-
-def body_beats(positions: np.ndarray, fps: float, names: Sequence[str], where: str = "clip",
-               min_gap: float = 0.2) -> np.ndarray:
-    """Times (s) of the body's accents: local minima of :func:`body_energy` at least ``min_gap``
-    seconds apart and below the clip's median energy (a pause between movements, not noise on a
-    still body)."""
-    body = Body.of(names, where)
-    energy = body_energy(positions, fps, body, leg_length(positions, body))
-    if len(energy) < 3 or energy.max() < 1e-6:
-        return np.zeros(0)
-    order = max(1, int(round(min_gap * fps / 2)))
-    idx = [t for t in range(order, len(energy) - order)
-           if energy[t] == energy[t - order:t + order + 1].min() and energy[t] < np.median(energy)
-           and energy[t - order:t + order + 1].max() - energy[t] > 0.05 * np.median(energy)]
-    return np.asarray(idx, np.float64) / fps
 
 
 def on_beat(kinematic_beats: np.ndarray, music_beats: np.ndarray) -> float:

@@ -1,7 +1,7 @@
 """Choreography from real moves: a motion graph over real dance takes, walked to a song's beats.
 
 The takes (any rig, retargeted onto one skeleton by the ``mocap`` dataset) are cut at the dancer's own
-accents (:func:`dance_core.evaluation.realism.body_beats`: pauses of the limbs relative to the body),
+accents (:func:`dance_core.motion.body.body_beats`: pauses of the limbs relative to the body),
 so every *segment* runs from one accent to the next. A segment may follow the one after it in its
 take (the natural successor) or any segment whose first pose is close to its last (a *transition*):
 poses compared in the body's own frame (joints relative to the pelvis, facing forward) with their
@@ -69,7 +69,7 @@ class MotionGraph:
     """Segments of real takes and the transitions between them (see the module's note)."""
 
     def __init__(self, takes: list[Motion], names: list[str] | None = None, options: GraphOptions | None = None):
-        from dance_core.evaluation.realism import body_beats
+        from dance_core.motion.body import body_beats
 
         if not takes:
             raise DataError("motion graph: no takes")
