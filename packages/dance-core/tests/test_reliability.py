@@ -99,10 +99,11 @@ def poisoned_sources(recipe, field: str = "motion"):
 
 
 def test_nan_motion_stops_before_training_naming_the_file(tiny_recipe, tmp_path, monkeypatch):
-    import dance_core.train as T
+    import dance_core.data.prepare as P  # training's data-preparation step lists the dataset here
 
     recipe = tiny_recipe()
-    monkeypatch.setattr(T, "dataset_sources", lambda r: poisoned_sources(r))
+    poisoned = poisoned_sources(recipe)
+    monkeypatch.setattr(P, "dataset_sources", lambda r: poisoned)
     run = tmp_path / "run"
     with pytest.raises(DataError) as err:
         train(recipe, out=str(run), quiet=True)

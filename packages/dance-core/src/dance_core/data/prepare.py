@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -56,6 +57,44 @@ def encode_sources(recipe: Recipe, sources: list[ClipSource]) -> list[ClipSource
             data = MotionData(rep.encode(m), recipe.fps, rep.channels(ref), dict(s.motion.meta), m)
             out.append(replace(s, name=name, motion=data, meta={**s.meta, "song": s.name}))
     return out
+
+
+@dataclass
+class PreparedData:
+    """A recipe's data ready for a model, not yet standardized: the sources (motion encoded with the
+    recipe's representation at its fps) and their clips (features extracted, cropped with the motion)."""
+
+    sources: list[ClipSource]
+    clips: list[Clip]
+
+    def standardized(self, stats: Any) -> list[Clip]:
+        """The clips standardized with ``stats`` (a ``NormStats``: the run's own, or a checkpoint's)."""
+        return [stats.apply(c) for c in self.clips]
+
+
+def prepare_data(
+    recipe: Recipe,
+    stack: FeatureStack,
+    registry: Registry,
+    sources: Iterable[ClipSource] | None = None,
+    *,
+    before_features: Callable[[list[ClipSource]], None] | None = None,
+    progress: Callable[[ClipSource], None] | None = None,
+) -> PreparedData:
+    """The one data-preparation step of training and of held-out evaluation: the recipe's dataset (or
+    ``sources``, clips as a dataset yields them) encoded with the recipe's motion representation
+    (:func:`dataset_sources`, :func:`encode_sources`), then each source's features extracted and cropped
+    with its motion (:func:`to_clip`). ``before_features`` sees the encoded sources first (a distributed
+    run warms its feature cache there); ``progress`` is called with each source once its clip is made."""
+    encoded = dataset_sources(recipe) if sources is None else encode_sources(recipe, list(sources))
+    if before_features is not None:
+        before_features(encoded)
+    clips = []
+    for source in encoded:
+        clips.append(to_clip(source, stack, registry))
+        if progress is not None:
+            progress(source)
+    return PreparedData(encoded, clips)
 
 
 def motion_info(recipe: Recipe, sources: list[ClipSource], dim: int) -> MotionInfo:

@@ -38,7 +38,7 @@ def held_out_nll(
     import torch
 
     from dance_core.compose import load_model
-    from dance_core.data.prepare import encode_sources, to_clip
+    from dance_core.data.prepare import prepare_data
     from dance_core.data.sampling import SegmentSampler
     from dance_core.protocols import TrainContext
     from dance_core.registry import get_registry
@@ -47,7 +47,7 @@ def held_out_nll(
         raise DataError("held-out NLL: no clips to score")
     registry = get_registry()
     model, ckpt, stack = load_model(recipe, checkpoint, torch.device("cpu"))
-    clips = [ckpt.stats.apply(to_clip(s, stack, registry)) for s in encode_sources(recipe, list(sources))]
+    clips = prepare_data(recipe, stack, registry, sources).standardized(ckpt.stats)  # as training prepares its data
     length = model.segment_frames(recipe.data.segment_frames if recipe.data else None)
     sampler = SegmentSampler(clips, length, batch_size, seed, "held-out")
     # every schedule at 0 (a curriculum head then teacher-forces); the value is not used by a flow

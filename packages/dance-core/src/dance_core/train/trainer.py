@@ -1,64 +1,40 @@
-"""The training loop: stages, AdamW, schedules, validation, JSONL log, checkpoints, exact resume.
-
-A run folder is locked while a run trains in it (``train.lock`` holding the pid); the model
-checkpoint and the training state are written as one output set and carry the same step and run id.
+"""The step loop: stages, AdamW, schedules, AMP, validation, logging and checkpoints into a run folder.
 
 Under torchrun (``dance_core.distributed``) every rank runs this loop on its share of each batch with
 DistributedDataParallel: ``training.batch_size`` is per rank, the batch of step ``s`` is the one a
 single process draws with ``batch_size × world_size`` and rank ``r`` takes its ``r``-th slice; the
 loss and a non-finite flag are all-reduced before the backward pass (every rank stops together, with
-one message); validation is all-reduced the same way; only rank 0 locks the run folder and writes
-the log, the recipe and the checkpoints.
+one message); validation is all-reduced the same way; only rank 0 writes the run folder
+(``train.run_folder``).
 """
 
 from __future__ import annotations
 
-import contextlib
-import hashlib
-import json
 import math
-import numbers
-import os
 import time
-from collections.abc import Iterator
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import torch
-import yaml
 
 from dance_core import distributed
-from dance_core.atomic import OutputSet, pid_alive, sigterm_as_interrupt, sweep_stale_temps, write_text
-from dance_core.checkpoint import (
-    check_matches,
-    load_checkpoint,
-    load_train_state,
-    load_weights,
-    save_checkpoint,
-    save_train_state,
-    train_state_info,
-)
+from dance_core.checkpoint import load_weights
 from dance_core.data.features import FeatureStack
-from dance_core.data.prepare import cached_features, dataset_sources, motion_info, to_clip
-from dance_core.data.sampling import SegmentSampler, split_clips
-from dance_core.data.stats import NormStats
-from dance_core.errors import CheckpointError, DanceError, DataError, RecipeError, TrainingError
+from dance_core.data.prepare import PreparedData
+from dance_core.data.sampling import SegmentSampler
+from dance_core.errors import RecipeError, TrainingError
 from dance_core.model import ComposedModel, build_model
 from dance_core.progress import progress_bar
 from dance_core.protocols import TrainContext
 from dance_core.recipe.schema import Recipe, StageSpec
 from dance_core.registry import get_registry
 from dance_core.runtime import pick_device, seed_everything
-from dance_core.warm_start import init_checkpoint, init_stats, init_weights
-
-MODEL_FILE, STATE_FILE, LOG_FILE = "model.safetensors", "state.safetensors", "log.jsonl"
-LOCK_FILE, RECIPE_FILE = "train.lock", "recipe.yaml"
-#: a lock file still empty after this many seconds was left by a process that died creating it
-EMPTY_LOCK_GRACE_S = 10.0
-
-_held_locks: set[Path] = set()
+from dance_core.train.data import training_data, warm_feature_cache
+from dance_core.train.run_folder import RunFolder, run_id, run_lock
+from dance_core.train.stages import check_stop_at, stage_at, trainable_parameters
+from dance_core.warm_start import init_checkpoint, init_weights
 
 
 @dataclass
@@ -71,119 +47,6 @@ class TrainResult:
     first_loss: float
     last_loss: float
     val_loss: float | None
-
-
-def run_dir_for(recipe: Recipe, out: str | None = None) -> Path:
-    """The run folder: ``--out`` or ``training.output`` with ``{name}`` filled in."""
-    return Path(out or recipe.training.output.format(name=recipe.name))
-
-
-def run_id(recipe: Recipe) -> str:
-    """The id a new run records in its checkpoints: a digest of the resolved recipe it starts from
-    (no clock, no path), so that the same run gives the same bytes and a state from another run is told apart."""
-    text = json.dumps(recipe.model_dump(mode="json"), sort_keys=True)
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
-
-
-def _lock_holder(path: Path) -> int | None:
-    try:
-        text = path.read_text(encoding="utf-8").strip()
-    except (FileNotFoundError, UnicodeDecodeError):
-        return None
-    return int(text) if text.isdigit() else None
-
-
-def _take_lock(path: Path) -> None:
-    for _ in range(3):
-        try:
-            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
-        except FileExistsError:
-            holder = _lock_holder(path)
-            if holder is None:
-                try:
-                    age = time.time() - path.stat().st_mtime
-                except FileNotFoundError:
-                    continue
-                if age < EMPTY_LOCK_GRACE_S:
-                    raise DanceError(f"{path.parent}: run folder is being locked by another dance train "
-                                     f"({path} is still empty); train into another folder (--out)") from None
-            elif holder != os.getpid() and pid_alive(holder):
-                raise DanceError(f"{path.parent}: run folder is in use by another dance train (pid {holder}, "
-                                 f"lock {path}); wait for it or train into another folder (--out)") from None
-            from dance_core.plugins import warn
-
-            if _lock_holder(path) != holder:  # another trainer took it over meanwhile: look again
-                continue
-            who = f"pid {holder}, no longer running" if holder is not None else "no pid"
-            warn(f"{path}: taking over a stale lock ({who})")
-            path.unlink(missing_ok=True)
-            continue
-        except IsADirectoryError:
-            raise DataError(f"{path}: is a folder; cannot lock the run folder") from None
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(f"{os.getpid()}\n")
-        return
-    raise DanceError(f"{path.parent}: could not lock the run folder ({path} keeps reappearing)")
-
-
-@contextlib.contextmanager
-def run_lock(run_dir: str | Path) -> Iterator[Path]:
-    """Hold the run folder's lock (``train.lock``, created with O_EXCL, holding this pid) while the
-    block runs; a second trainer gets one line naming the holder, a dead holder's lock is taken over
-    with a warning. Re-entrant within one process. Yields the lock file's path."""
-    run_dir = Path(run_dir)
-    if run_dir.exists() and not run_dir.is_dir():
-        raise DataError(f"{run_dir}: is a file, not a run folder")
-    run_dir.mkdir(parents=True, exist_ok=True)
-    path = (run_dir / LOCK_FILE).resolve()
-    if path in _held_locks:
-        yield path
-        return
-    with sigterm_as_interrupt():
-        _take_lock(path)
-        _held_locks.add(path)
-        try:
-            yield path
-        finally:
-            _held_locks.discard(path)
-            if _lock_holder(path) == os.getpid():
-                path.unlink(missing_ok=True)
-
-
-def check_stop_at(stop_at: int | None, total: int, start: int = 0) -> None:
-    """``stop_at`` must be a step after ``start`` and within the run's ``total`` steps."""
-    if stop_at is None:
-        return
-    if isinstance(stop_at, bool) or not isinstance(stop_at, numbers.Integral):
-        raise DanceError(f"stop_at: must be a whole number of steps, got {stop_at!r}")
-    stop_at = int(stop_at)
-    if stop_at <= 0:
-        raise DanceError(f"stop_at: must be a positive step, got {stop_at}")
-    if stop_at > total:
-        raise DanceError(f"stop_at: step {stop_at} is beyond the run's last step ({total}, training.steps)")
-    if stop_at <= start:
-        raise DanceError(f"stop_at: step {stop_at} is not after the step the run resumes from ({start})")
-
-
-def stage_at(stages: list[StageSpec], step: int) -> tuple[int, int]:
-    """(stage index, step within the stage) of a global step."""
-    start = 0
-    for i, stage in enumerate(stages):
-        if step < start + stage.steps:
-            return i, step - start
-        start += stage.steps
-    return len(stages) - 1, stages[-1].steps
-
-
-def trainable_parameters(model: ComposedModel, stage: StageSpec) -> list[torch.nn.Parameter]:
-    """Parameters whose names start with one of the stage's prefixes (all when none given)."""
-    named = list(model.named_parameters())
-    if not stage.trainable:
-        return [p for _, p in named]
-    chosen = [p for n, p in named if any(n.startswith(prefix) for prefix in stage.trainable)]
-    if not chosen:
-        raise TrainingError(f"training.stages.{stage.name}.trainable: no parameter matches {stage.trainable}")
-    return chosen
 
 
 class _LossModule(torch.nn.Module):
@@ -223,9 +86,12 @@ def _autocast(device: torch.device, precision: str):
 
 
 class Trainer:
-    """Trains the recipe's model on its dataset; one instance per run."""
+    """Trains the recipe's model on its dataset into a run folder; one instance per run.
 
-    def __init__(self, recipe: Recipe, run_dir: Path, quiet: bool = False):
+    ``data``: the recipe's data prepared beforehand (``data.prepare.prepare_data``), for several runs
+    on the same data; by default it is prepared here."""
+
+    def __init__(self, recipe: Recipe, run_dir: Path, quiet: bool = False, data: PreparedData | None = None):
         self.recipe = recipe
         self.run_dir = run_dir
         self.ranks = distributed.current()
@@ -243,23 +109,12 @@ class Trainer:
             raise RecipeError(f"{recipe.origin}: training.augment.input_dropout.{unknown[0]}: no input of that name "
                               f"(inputs: motion, {', '.join(self.stack.dims())})")
         init = init_checkpoint(recipe)  # read before the data, so a wrong path fails at once
-        sources = dataset_sources(recipe)
-        self._warm_feature_cache(sources)
-        clips = []
-        with progress_bar(self.quiet) as bar:
-            task = bar.add_task("features", total=len(sources), info="") if bar else None
-            for source in sources:
-                clips.append(to_clip(source, self.stack, self.registry))
-                if bar:
-                    bar.update(task, advance=1, info=source.name)
-        train, val = split_clips(clips, recipe.data.val_fraction, recipe.seed)
-        self.stats = NormStats.fit(train, self.stack.categorical())
-        if init is not None and self.t.init.stats:
-            self.stats = init_stats(init, self.stats)
-        train = [self.stats.apply(c) for c in train]
-        val = [self.stats.apply(c) for c in val]
-        motion_dim = train[0].motion.shape[1]
-        self.motion_info = motion_info(recipe, sources, motion_dim)
+        self.folder = RunFolder(run_dir, writes=self.ranks.main)
+        self.data = training_data(recipe, self.stack, self.registry, init=init, prepared=data,
+                                  warm=self._warm_feature_cache, quiet=self.quiet)
+        self.stats = self.data.stats
+        self.motion_info = self.data.motion
+        motion_dim = self.motion_info.dim
         torch.manual_seed(recipe.seed)
         self.model = build_model(recipe, motion_dim, self.stack.dims()).to(self.device)
         if init is not None:
@@ -269,7 +124,8 @@ class Trainer:
             raise RecipeError(f"{recipe.origin}: training.augment: motion_noise and input_dropout.motion corrupt "
                               f"the past motion a windowed encoder sees; {recipe.model.encoder.plugin} sees none")
         length = self.model.segment_frames(recipe.data.segment_frames)
-        self.sampler = SegmentSampler(train, length, self.t.batch_size, recipe.seed)
+        self.sampler = SegmentSampler(self.data.train, length, self.t.batch_size, recipe.seed)
+        val = self.data.val
         self.val_sampler = (
             SegmentSampler(val, length, self.t.batch_size, recipe.seed + 1, "validation") if val else None
         )
@@ -298,20 +154,9 @@ class Trainer:
         self.resyncs = 0
 
     def _warm_feature_cache(self, sources) -> None:
-        """Several ranks: each extracts its share of the songs a dataset caches (``data.cache``) into the
-        cache, then all wait for each other and read every song from it. A song that fails here fails
-        again, on every rank alike, when the clips are made."""
-        cached = [s for s in sources if s.meta.get("feature_cache") and s.audio_path is not None]
-        songs: dict[tuple[str, str], object] = {}
-        for source in cached:  # a mirrored copy shares its song's features
-            songs.setdefault((str(source.audio_path), repr(source.texts)), source)
-        cached = list(songs.values())
-        if self.world == 1 or not cached:
-            return
-        for source in cached[self.ranks.rank :: self.world]:
-            with contextlib.suppress(DanceError, OSError, ValueError):
-                cached_features(source, self.stack, self.registry, source.meta["feature_cache"])
-        distributed.barrier()
+        """Several ranks share the extraction of the songs a dataset caches, then wait for each other."""
+        if self.world > 1 and warm_feature_cache(sources, self.stack, self.registry, self.ranks.rank, self.world):
+            distributed.barrier()
 
     def _part(self) -> tuple[int, int]:
         return self.ranks.rank, self.world
@@ -372,42 +217,16 @@ class Trainer:
 
     def save(self, step: int, optimizer: torch.optim.Optimizer) -> Path:
         """Write the model checkpoint and the training state as one output set (both or neither)."""
-        path = self.run_dir / MODEL_FILE
-        with OutputSet() as out:
-            save_checkpoint(out.path(path), self.model, self.stats, self.recipe, self.motion_info, step, self.run_id)
-            save_train_state(out.path(self.run_dir / STATE_FILE), optimizer, step, self.run_id)
-        return path
+        return self.folder.save(self.model, self.stats, self.recipe, self.motion_info, step, self.run_id, optimizer)
 
     def _log(self, record: dict) -> None:
-        if not self.ranks.main:
-            return
-        with open(self.run_dir / LOG_FILE, "a", encoding="utf-8") as fh:
-            fh.write(json.dumps(record) + "\n")
+        self.folder.log(record)
 
     def _resume(self) -> int:
-        ckpt = load_checkpoint(self.run_dir / MODEL_FILE)
-        check_matches(ckpt, self.recipe)
-        state_path = self.run_dir / STATE_FILE
-        if not state_path.exists():
-            raise CheckpointError(f"{state_path}: training state not found; cannot resume")
-        state_step, state_run = train_state_info(state_path)
-        if state_step != ckpt.step:
-            raise CheckpointError(f"{self.run_dir}: model checkpoint is at step {ckpt.step} but the training "
-                                  f"state at step {state_step}; they do not belong together, cannot resume")
-        if ckpt.run is not None and state_run is not None and state_run != ckpt.run:
-            raise CheckpointError(f"{self.run_dir}: model checkpoint (run {ckpt.run}) and training state "
-                                  f"(run {state_run}) come from different runs; cannot resume")
+        ckpt = self.folder.resume_checkpoint(self.recipe)
         load_weights(self.model, ckpt)
         self.run_id = ckpt.run or self.run_id
         return ckpt.step
-
-    def _trim_log(self, step: int) -> None:
-        if not self.ranks.main:
-            return
-        path = self.run_dir / LOG_FILE
-        if path.exists():
-            lines = [ln for ln in path.read_text().splitlines() if ln and json.loads(ln).get("step", 0) <= step]
-            write_text(path, "".join(ln + "\n" for ln in lines))
 
     def run(self, resume: bool = False, stop_at: int | None = None) -> TrainResult:
         """Train to the last step (or to ``stop_at``), continuing the run in the folder when ``resume``;
@@ -419,7 +238,7 @@ class Trainer:
             finally:
                 self._release_stage()
         with run_lock(self.run_dir):
-            sweep_stale_temps(self.run_dir, [MODEL_FILE, STATE_FILE, LOG_FILE, RECIPE_FILE])
+            self.folder.sweep()
             try:
                 return self._run(resume, stop_at)
             finally:
@@ -438,14 +257,9 @@ class Trainer:
             start, self.run_id = distributed.on_main(lambda: (self._resume(), self.run_id))
             distributed.broadcast_module(self.model)
             check_stop_at(stop_at, self.total, start)
-            self._trim_log(start)
         else:
             self.run_id = run_id(self.recipe)
-            if self.ranks.main:
-                (self.run_dir / LOG_FILE).unlink(missing_ok=True)
-        if self.ranks.main:
-            text = yaml.safe_dump(self.recipe.model_dump(mode="json"), sort_keys=False)
-            write_text(self.run_dir / RECIPE_FILE, text)
+        self.folder.start(self.recipe, start if resume else None)
         self.model.train()
         stage_index, _ = stage_at(self.stages, start)
         optimizer = self._optimizer(self.stages[stage_index])
@@ -453,7 +267,7 @@ class Trainer:
             same_stage = start > 0 and stage_at(self.stages, start - 1)[0] == stage_index
 
             def restore():
-                load_train_state(self.run_dir / STATE_FILE, optimizer if same_stage else None)
+                self.folder.load_state(optimizer if same_stage else None)
                 return distributed.to_cpu(optimizer.state_dict()) if same_stage and self.world > 1 else None
 
             state = distributed.on_main(restore)
@@ -461,7 +275,7 @@ class Trainer:
                 optimizer.load_state_dict(state)
         first = last = float("nan")
         val_loss = None
-        checkpoint = self.run_dir / MODEL_FILE
+        checkpoint = self.folder.model
         tick, tick_step = time.perf_counter(), start
         with progress_bar(self.quiet) as bar:
             task = None
@@ -561,10 +375,7 @@ class Trainer:
         return float(losses.mean())
 
     def _stop(self, step: int, what: str, ctx: TrainContext) -> None:
-        path = self.run_dir / MODEL_FILE
-        kept = distributed.on_main(
-            lambda: f"last good checkpoint: {path}" if path.exists() else "no checkpoint was written yet"
-        )
+        kept = distributed.on_main(self.folder.last_good)
         self._log({"step": step, "stage": ctx.stage, "error": what})
         error = TrainingError(
             f"training stopped at step {step} (stage {ctx.stage}): {what}; {kept} "
@@ -573,34 +384,3 @@ class Trainer:
         error.all_ranks = True  # every rank raises this same message at this step
         raise error
 
-
-def train(
-    recipe: Recipe, out: str | None = None, resume: bool = False, quiet: bool = False, stop_at: int | None = None
-) -> TrainResult:
-    """Train a recipe's model; the run folder holds checkpoint, state, log and resolved recipe.
-
-    ``stop_at`` (a step in ``1..training.steps``) and the run folder's lock are checked before any
-    data is read; a folder this call created is removed again if the run fails before writing to it.
-    Started by torchrun (``RANK``/``WORLD_SIZE`` set), it joins the process group for the run and
-    trains on every rank (``dance_core.distributed``); rank 0 alone locks and writes the run folder.
-    """
-    check_stop_at(stop_at, sum(s.steps for s in recipe.training.stage_list()))
-    run_dir = run_dir_for(recipe, out)
-    with distributed.session(recipe.training.device) as ranks:
-        if not ranks.main:
-            distributed.share_outcome()  # raises rank 0's error if it could not lock the run folder
-            return Trainer(recipe, run_dir, quiet=True).run(resume=resume, stop_at=stop_at)
-        created = not run_dir.exists()
-        try:
-            with contextlib.ExitStack() as stack:
-                try:
-                    stack.enter_context(run_lock(run_dir))
-                except BaseException as exc:
-                    distributed.share_outcome(exc)
-                    raise
-                distributed.share_outcome(None)
-                return Trainer(recipe, run_dir, quiet).run(resume=resume, stop_at=stop_at)
-        except BaseException:
-            if created and run_dir.is_dir() and not any(run_dir.iterdir()):
-                run_dir.rmdir()
-            raise

@@ -1,0 +1,196 @@
+"""A training run's folder: its lock, its files, what it records and how a run resumes from it.
+
+The folder holds ``model.safetensors`` (the checkpoint), ``state.safetensors`` (optimizer and RNG state),
+``log.jsonl`` and ``recipe.yaml`` (the resolved recipe). It is locked while a run trains in it
+(``train.lock`` holding the pid); the checkpoint and the state are written as one output set and carry
+the same step and run id, so a resume can tell a pair that belongs together. Every write is atomic.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from dance_core.atomic import OutputSet, pid_alive, sigterm_as_interrupt, sweep_stale_temps, write_text
+from dance_core.checkpoint import (
+    Checkpoint,
+    check_matches,
+    load_checkpoint,
+    load_train_state,
+    save_checkpoint,
+    save_train_state,
+    train_state_info,
+)
+from dance_core.errors import CheckpointError, DanceError, DataError
+from dance_core.recipe.schema import Recipe
+
+MODEL_FILE, STATE_FILE, LOG_FILE = "model.safetensors", "state.safetensors", "log.jsonl"
+LOCK_FILE, RECIPE_FILE = "train.lock", "recipe.yaml"
+#: a lock file still empty after this many seconds was left by a process that died creating it
+EMPTY_LOCK_GRACE_S = 10.0
+
+_held_locks: set[Path] = set()
+
+
+def run_dir_for(recipe: Recipe, out: str | None = None) -> Path:
+    """The run folder: ``--out`` or ``training.output`` with ``{name}`` filled in."""
+    return Path(out or recipe.training.output.format(name=recipe.name))
+
+
+def run_id(recipe: Recipe) -> str:
+    """The id a new run records in its checkpoints: a digest of the resolved recipe it starts from
+    (no clock, no path), so that the same run gives the same bytes and a state from another run is told apart."""
+    text = json.dumps(recipe.model_dump(mode="json"), sort_keys=True)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+
+
+def _lock_holder(path: Path) -> int | None:
+    try:
+        text = path.read_text(encoding="utf-8").strip()
+    except (FileNotFoundError, UnicodeDecodeError):
+        return None
+    return int(text) if text.isdigit() else None
+
+
+def _take_lock(path: Path) -> None:
+    for _ in range(3):
+        try:
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        except FileExistsError:
+            holder = _lock_holder(path)
+            if holder is None:
+                try:
+                    age = time.time() - path.stat().st_mtime
+                except FileNotFoundError:
+                    continue
+                if age < EMPTY_LOCK_GRACE_S:
+                    raise DanceError(f"{path.parent}: run folder is being locked by another dance train "
+                                     f"({path} is still empty); train into another folder (--out)") from None
+            elif holder != os.getpid() and pid_alive(holder):
+                raise DanceError(f"{path.parent}: run folder is in use by another dance train (pid {holder}, "
+                                 f"lock {path}); wait for it or train into another folder (--out)") from None
+            from dance_core.plugins import warn
+
+            if _lock_holder(path) != holder:  # another trainer took it over meanwhile: look again
+                continue
+            who = f"pid {holder}, no longer running" if holder is not None else "no pid"
+            warn(f"{path}: taking over a stale lock ({who})")
+            path.unlink(missing_ok=True)
+            continue
+        except IsADirectoryError:
+            raise DataError(f"{path}: is a folder; cannot lock the run folder") from None
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(f"{os.getpid()}\n")
+        return
+    raise DanceError(f"{path.parent}: could not lock the run folder ({path} keeps reappearing)")
+
+
+@contextlib.contextmanager
+def run_lock(run_dir: str | Path) -> Iterator[Path]:
+    """Hold the run folder's lock (``train.lock``, created with O_EXCL, holding this pid) while the
+    block runs; a second trainer gets one line naming the holder, a dead holder's lock is taken over
+    with a warning. Re-entrant within one process. Yields the lock file's path."""
+    run_dir = Path(run_dir)
+    if run_dir.exists() and not run_dir.is_dir():
+        raise DataError(f"{run_dir}: is a file, not a run folder")
+    run_dir.mkdir(parents=True, exist_ok=True)
+    path = (run_dir / LOCK_FILE).resolve()
+    if path in _held_locks:
+        yield path
+        return
+    with sigterm_as_interrupt():
+        _take_lock(path)
+        _held_locks.add(path)
+        try:
+            yield path
+        finally:
+            _held_locks.discard(path)
+            if _lock_holder(path) == os.getpid():
+                path.unlink(missing_ok=True)
+
+
+class RunFolder:
+    """The files of one run folder. ``writes=False`` (a rank other than 0) reads it but never writes
+    its log: only rank 0 writes a run folder."""
+
+    def __init__(self, path: str | Path, writes: bool = True):
+        self.path = Path(path)
+        self.writes = writes
+
+    @property
+    def model(self) -> Path:
+        """The model checkpoint."""
+        return self.path / MODEL_FILE
+
+    @property
+    def state(self) -> Path:
+        """The training state (optimizer and RNG) that goes with the checkpoint."""
+        return self.path / STATE_FILE
+
+    @property
+    def log_file(self) -> Path:
+        """The JSONL log, one record per logged step."""
+        return self.path / LOG_FILE
+
+    def sweep(self) -> None:
+        """Remove what a killed run left of its temporary files beside the run's own."""
+        sweep_stale_temps(self.path, [MODEL_FILE, STATE_FILE, LOG_FILE, RECIPE_FILE])
+
+    def start(self, recipe: Recipe, resume_step: int | None) -> None:
+        """Begin writing: a new run drops the old log; a resumed one cuts it after ``resume_step``;
+        both record the resolved recipe."""
+        if not self.writes:
+            return
+        if resume_step is None:
+            self.log_file.unlink(missing_ok=True)
+        elif self.log_file.exists():
+            lines = [ln for ln in self.log_file.read_text().splitlines()
+                     if ln and json.loads(ln).get("step", 0) <= resume_step]
+            write_text(self.log_file, "".join(ln + "\n" for ln in lines))
+        write_text(self.path / RECIPE_FILE, yaml.safe_dump(recipe.model_dump(mode="json"), sort_keys=False))
+
+    def log(self, record: dict[str, Any]) -> None:
+        """Append one record to the log."""
+        if not self.writes:
+            return
+        with open(self.log_file, "a", encoding="utf-8") as fh:
+            fh.write(json.dumps(record) + "\n")
+
+    def save(self, model: Any, stats: Any, recipe: Recipe, motion: Any, step: int, run: str, optimizer: Any) -> Path:
+        """Write the model checkpoint and the training state as one output set (both or neither)."""
+        with OutputSet() as out:
+            save_checkpoint(out.path(self.model), model, stats, recipe, motion, step, run)
+            save_train_state(out.path(self.state), optimizer, step, run)
+        return self.model
+
+    def resume_checkpoint(self, recipe: Recipe) -> Checkpoint:
+        """The checkpoint a run resumes from, after checking that it fits ``recipe`` and that the
+        training state beside it belongs to it (same step, same run)."""
+        ckpt = load_checkpoint(self.model)
+        check_matches(ckpt, recipe)
+        if not self.state.exists():
+            raise CheckpointError(f"{self.state}: training state not found; cannot resume")
+        state_step, state_run = train_state_info(self.state)
+        if state_step != ckpt.step:
+            raise CheckpointError(f"{self.path}: model checkpoint is at step {ckpt.step} but the training "
+                                  f"state at step {state_step}; they do not belong together, cannot resume")
+        if ckpt.run is not None and state_run is not None and state_run != ckpt.run:
+            raise CheckpointError(f"{self.path}: model checkpoint (run {ckpt.run}) and training state "
+                                  f"(run {state_run}) come from different runs; cannot resume")
+        return ckpt
+
+    def load_state(self, optimizer: Any | None) -> int:
+        """Restore RNG and (unless None) optimizer state from the training state; returns its step."""
+        return load_train_state(self.state, optimizer)
+
+    def last_good(self) -> str:
+        """What a stopped run leaves: its last checkpoint, or that none was written yet."""
+        return f"last good checkpoint: {self.model}" if self.model.exists() else "no checkpoint was written yet"
