@@ -72,5 +72,5 @@ def test_capabilities_are_typed_with_their_defaults():
         assert entry.info == {"suffixes": (".odd",), "priority": 3, "write_only": False}
         assert registry.for_suffix("motion-format", ".odd") is entry
     core = Registry(make_plugin_manager(load_entry_points=False))
-    assert core.get("feature", "energy").info == {"reads": ("audio",)}
+    assert core.get("feature", "energy").info == {"reads": ("audio",), "beats": False}
     assert core.get("head", "regression").info == {}

@@ -47,6 +47,7 @@ def register_feature_extractors(register):
         f"{_M}.beats:build",
         "beat and downbeat one-hots and phases (our tempo-following HMM or librosa's tracker; madmom's DBN opt-in, "
         "non-commercial) (6)",
+        beats=True,
     )
     register(
         "word-tokens",

@@ -51,9 +51,12 @@ class FormatCapabilities(FileCapabilities):
 
 
 class FeatureCapabilities(Capabilities):
-    """Feature extractors: the inputs read (``("text",)`` makes compose and training gather text)."""
+    """Feature extractors: the inputs read (``("text",)`` makes compose and training gather text), and
+    ``beats=True`` for a beat tracker (its first two columns are beat and downbeat one-hot frames, its
+    ``tracker`` option the method): core's synthesizer and beat metrics find their tracker by it."""
 
     reads: tuple[Literal["audio", "text"], ...] = ("audio",)
+    beats: StrictBool = False
 
 
 @dataclass(frozen=True)

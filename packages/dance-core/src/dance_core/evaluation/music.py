@@ -5,7 +5,7 @@ For a song ``NAME`` in the music folder, the first source that exists wins:
 1. ``NAME.beats``: a beat annotation (one beat per line, the time in seconds first, as madmom's
    and most MIR datasets' ``.beats`` files; ``dance evaluate`` writes none, it only reads them).
 2. The audio file ``NAME.<suffix>`` read by a registered audio reader, with beats from the
-   registered ``beats`` feature extractor (dance-audio's, its licence-clean ``librosa`` tracker).
+   registered beat tracker (``beats=True``: dance-audio's ``beats``, its licence-clean ``librosa`` tracker).
 3. Otherwise a documented fallback: peaks of the spectral-flux onset strength of core's
    ``energy`` features (log-compressed, above its 1 s moving average), at least ``MIN_GAP`` apart.
    These are onsets, not a tracked beat grid: on music with a steady pulse (the synthetic click
@@ -90,13 +90,15 @@ def onset_peaks(envelope: np.ndarray, fps: float, min_gap: float = MIN_GAP) -> n
 
 
 def audio_beats(audio: Audio, registry: Registry, tracker: str = "librosa") -> tuple[np.ndarray, str]:
-    """Beat times of an audio signal and the name of the method that found them: the registered
-    ``beats`` extractor (dance-audio's, ``tracker`` as its option), else onset peaks."""
-    from dance_core.synth.choreograph import TRACK_FPS, tracked_beats
+    """Beat times of an audio signal and the name of the method that found them: the registered beat
+    tracker (the extractor registered with ``beats=True``, dance-audio's ``beats``, ``tracker`` as its
+    option), else onset peaks."""
+    from dance_core.data.beat_tracking import TRACK_FPS, beat_tracker, tracked_beats
 
-    if "beats" in registry.names("feature"):
+    entry = beat_tracker(registry)
+    if entry is not None:
         beats, _ = tracked_beats(audio, registry, tracker)
-        return beats / TRACK_FPS, f"'beats' extractor ({tracker} tracker)"
+        return beats / TRACK_FPS, f"'{entry.name}' extractor ({tracker} tracker)"
     return onset_peaks(onset_envelope(audio), ONSET_FPS), "energy onset peaks (fallback)"
 
 

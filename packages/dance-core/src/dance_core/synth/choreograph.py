@@ -1,41 +1,28 @@
 """The synthetic dancer choreographed to any music: tracked beats, sections from the sound, moves per section.
 
-Beats and downbeats come from the registered ``beats`` feature extractor (dance-audio's trackers),
-so core needs no audio analysis of its own beyond a coarse per-bar description used to find
-sections: loudness and the balance of low, middle and high frequencies. Section boundaries sit
-where that description changes most (novelty between the bars before and after), and each section
-is named by its loudness (quiet: intro, bridge or outro; loud: chorus; else verse), which sets the
-preferences of :func:`~dance_core.synth.dancer.choose_moves`. Several seeds give several valid
-dances to one song.
+Beats and downbeats come from the registered beat tracker (dance-audio's ``beats`` extractor, see
+:mod:`dance_core.data.beat_tracking`), so core needs no audio analysis of its own beyond a coarse
+per-bar description used to find sections: loudness and the balance of low, middle and high
+frequencies. Section boundaries sit where that description changes most (novelty between the bars
+before and after), and each section is named by its loudness (quiet: intro, bridge or outro; loud:
+chorus; else verse), which sets the preferences of :func:`~dance_core.synth.dancer.choose_moves`.
+Several seeds give several valid dances to one song.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from dance_core.errors import DataError, PluginError
-from dance_core.media import Audio, FeatureInputs, TextSpan
+from dance_core.data.beat_tracking import TRACK_FPS, tracked_beats
+from dance_core.errors import DataError
+from dance_core.media import Audio, TextSpan
 from dance_core.motion.motion import Motion
 from dance_core.registry import Registry
 from dance_core.synth.beat_grid import BeatGrid
 from dance_core.synth.dancer import Style, choose_moves, dance
 
-TRACK_FPS = 100.0
 #: upper edges (Hz) of the bands of the per-bar description
 BANDS = (150.0, 400.0, 1000.0, 2500.0, 6000.0)
-
-
-def tracked_beats(audio: Audio, registry: Registry, tracker: str = "flux") -> tuple[np.ndarray, np.ndarray]:
-    """Beat and downbeat frame indices at ``TRACK_FPS`` from the registered ``beats`` extractor
-    (dance-audio's; core tracks no beats itself). A ``PluginError`` when none is installed."""
-    try:
-        entry = registry.get("feature", "beats")
-    except PluginError as exc:
-        raise PluginError(f"tracking beats needs a 'beats' feature extractor: {exc} (pip install dance-audio)") from exc
-    extractor = entry.build(entry.config_for({"tracker": tracker}))
-    n = audio.n_frames(TRACK_FPS)
-    cols = np.asarray(extractor.extract(FeatureInputs(n_frames=n, audio=audio), TRACK_FPS))
-    return np.flatnonzero(cols[:, 0] > 0.5), np.flatnonzero(cols[:, 1] > 0.5)
 
 
 def track_grid(audio: Audio, registry: Registry, tracker: str = "flux") -> BeatGrid:
