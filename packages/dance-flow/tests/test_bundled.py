@@ -29,8 +29,8 @@ def test_the_bundled_weights_are_small_and_match_the_default_recipe():
 
 
 def test_the_bundled_model_composes_several_songs_and_samples(tmp_path):
-    from dance_core.synth.music import synthesize
     from dance_core.formats.wav import write_wav
+    from dance_core.synth.music import synthesize
 
     songs = []
     for seconds, name in ((3.0, "short"), (4.5, "long")):
@@ -78,8 +78,8 @@ def test_built_in_seeds_prompt_the_dance(tmp_path, demo_wav):
 @pytest.fixture
 def demo_wav(tmp_path):
     """A 3-second synthesized song."""
-    from dance_core.synth.music import synthesize
     from dance_core.formats.wav import write_wav
+    from dance_core.synth.music import synthesize
 
     song = synthesize(3.0, 120.0, 22050, np.random.default_rng(3))
     path = tmp_path / "demo.wav"

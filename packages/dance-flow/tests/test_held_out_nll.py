@@ -1,4 +1,4 @@
-"""Held-out NLL (dance_core.evaluation.likelihood) of the flow head: finite, deterministic, lower after
+"""Held-out NLL (dance_core.likelihood) of the flow head: finite, deterministic, lower after
 training than before on songs the model never saw; a regression head has none (n/a)."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 import pytest
 
 from dance_core.contexts import DatasetContext
-from dance_core.evaluation.likelihood import held_out_nll
+from dance_core.likelihood import held_out_nll
 from dance_core.recipe import load_recipe
 from dance_core.train import train
 

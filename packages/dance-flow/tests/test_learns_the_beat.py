@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from dance_core.compose import compose
-from dance_core.synth.synthetic_dance import make_clip
 from dance_core.evaluation.quality import beat_locking
 from dance_core.formats.bvh import BvhFormat
 from dance_core.formats.wav import write_wav
 from dance_core.recipe import load_recipe
+from dance_core.synth.synthetic_dance import make_clip
 from dance_core.train import train
 
 SHORT = [
