@@ -211,8 +211,8 @@ def score_dances(model: str, song: str, dances: list[Dance], beats: np.ndarray) 
 
 def reference_means(refs: list[tuple[str, Dance, np.ndarray]], fps: float) -> dict[str, float]:
     """Mean speed and jerk of the reference dances, and the diversity of three synthetic dances of one song."""
-    from dance_core.synth.synthetic_dance import make_clip
     from dance_core.evaluation.quality import diversity, smoothness
+    from dance_core.synth.synthetic_dance import make_clip
 
     values = [smoothness(d.positions, d.fps) for _, d, _ in refs]
     out = {k: float(np.mean([v[k] for v in values])) for k in ("speed", "jerk")}

@@ -33,9 +33,9 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--jobs", type=int, default=2)
     args = parser.parse_args()
-    from dance_core.synth.synthetic_dance import make_clip, write_dataset
     from dance_core.formats.bvh import BvhFormat
     from dance_core.render.preview import render
+    from dance_core.synth.synthetic_dance import make_clip, write_dataset
 
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     machine = platform.processor() or platform.machine()

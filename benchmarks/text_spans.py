@@ -129,9 +129,9 @@ def validate(n: int, first: int = 100) -> dict[str, dict[str, float]]:
     (classic dancer, 40 s dances ``first``..``first+n-1`` of seed 0, 30 fps). Recall: of the seconds the
     move covers at least half of, those where the detector fires; precision: of the seconds where it
     fires, those the move covers at least a tenth of (moves change within a second, blended)."""
+    from dance_core.evaluation.move_detect import DETECTORS, detect, second_hits
     from dance_core.synth.dancer import PHRASINGS
     from dance_core.synth.synthetic_dance import make_clip
-    from dance_core.evaluation.move_detect import DETECTORS, detect, second_hits
 
     label_of = {t: m for m, ts in PHRASINGS.items() for t in ts}
     counts = {m: [0, 0, 0, 0] for m in DETECTORS}  # hits on the move, hits, seconds of the move, found

@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 
 from dance_core.cli.main import main
-from dance_core.synth.beat_grid import BeatGrid
-from dance_core.synth.choreograph import find_sections
-from dance_core.synth.dancer import Style, dance
 from dance_core.errors import DataError
 from dance_core.evaluation.quality import hip_height_beats, phase_locking, wrong_tempo_grid
 from dance_core.formats.bvh import BvhFormat
+from dance_core.synth.beat_grid import BeatGrid
+from dance_core.synth.choreograph import find_sections
+from dance_core.synth.dancer import Style, dance
 
 FIXTURES = Path(__file__).resolve().parents[3].parent / "shared" / "fixtures" / "audio"
 SONG = FIXTURES / "hungarian_dance_5.ogg"

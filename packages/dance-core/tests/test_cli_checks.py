@@ -130,9 +130,9 @@ def snapshot(*folders: Path) -> set[tuple[str, int]]:
 @pytest.fixture(scope="module")
 def assets(tmp_path_factory) -> Path:
     """Inputs of the corpus: a 2-s song and its BVH dance, and the bad files."""
-    from dance_core.synth.synthetic_dance import make_clip
     from dance_core.formats.bvh import BvhFormat
     from dance_core.formats.wav import write_wav
+    from dance_core.synth.synthetic_dance import make_clip
 
     a = tmp_path_factory.mktemp("assets")
     clip = make_clip(0, seed=3, seconds=2.0, bpm=(120.0, 120.0), rate=16000, fps=20.0)

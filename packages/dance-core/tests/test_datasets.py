@@ -7,12 +7,12 @@ import pytest
 
 from dance_core.data.features import FeatureStack
 from dance_core.data.prepare import dataset_sources, to_clip
-from dance_core.synth.synthetic_dance import make_clip, write_dataset
 from dance_core.errors import DataError
 from dance_core.formats.smpl import SmplFormat
 from dance_core.formats.wav import write_wav
 from dance_core.recipe import load_recipe
 from dance_core.registry import get_registry
+from dance_core.synth.synthetic_dance import make_clip, write_dataset
 
 sys.path.insert(0, str(Path(__file__).parent))
 from smpl_model_helpers import smpl_model  # noqa: E402, F401 - fixture: a synthetic SMPL model in DANCE_SMPL_MODEL

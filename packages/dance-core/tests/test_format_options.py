@@ -11,12 +11,12 @@ from dance_core.contexts import DatasetContext
 from dance_core.data.features import FeatureStack, load_audio
 from dance_core.data.prepare import cached_features
 from dance_core.data.sources import ClipSource
-from dance_core.synth.synthetic_dance import write_dataset
 from dance_core.errors import RecipeError
 from dance_core.formats.configs import BvhFormatConfig
 from dance_core.formats.wav import WavReader, write_wav
 from dance_core.recipe import load_recipe
 from dance_core.registry import get_registry
+from dance_core.synth.synthetic_dance import write_dataset
 from dance_core.testing import registered_plugin
 
 

@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 
 from dance_core.compose import compose
-from dance_core.synth.synthetic_dance import make_clip
 from dance_core.errors import CheckpointError, DataError
 from dance_core.formats.bvh import BvhFormat
 from dance_core.motion.representation import PositionRepresentation, RotationRepresentation
 from dance_core.motion.root import root_to_deltas
 from dance_core.motion.rotations import quat_conj, quat_rotate, yaw_quat
 from dance_core.recipe import load_recipe
+from dance_core.synth.synthetic_dance import make_clip
 from dance_core.train import train
 
 TINY = ["data.dataset.songs=3", "data.dataset.seconds=8", "training.steps=20", "training.batch_size=8",

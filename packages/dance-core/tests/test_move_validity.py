@@ -6,10 +6,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dance_core.synth.synthetic_dance import make_clip
 from dance_core.errors import DataError
 from dance_core.evaluation.move_validity import MoveValidity
 from dance_core.protocols import JointClip
+from dance_core.synth.synthetic_dance import make_clip
 
 KW = {"seconds": 8.0, "bpm": (80.0, 140.0), "rate": 8000, "fps": 30.0}
 

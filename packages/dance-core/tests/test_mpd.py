@@ -5,11 +5,11 @@ a jump cut, a freeze or noise does not)."""
 import numpy as np
 import pytest
 
-from dance_core.synth.synthetic_dance import make_clip
 from dance_core.errors import DataError
 from dance_core.evaluation.canon import canonicalize, heading, hip_indices
 from dance_core.evaluation.mpd import MatchingPredictor, MotionPredictionDistance
 from dance_core.protocols import JointClip
+from dance_core.synth.synthetic_dance import make_clip
 
 FPS = 30.0
 TIMES = (3.3, 7.1, 11.6)  # evaluation points (s) of the sanity tests

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from dance_core.cli.main import main
-from dance_core.synth.synthetic_dance import make_clip
 from dance_core.errors import DataError
 from dance_core.formats.bvh import BvhFormat
 from dance_core.formats.wav import write_wav
 from dance_core.render.preview import render
+from dance_core.synth.synthetic_dance import make_clip
 
 
 @pytest.fixture(scope="module")

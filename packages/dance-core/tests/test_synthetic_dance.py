@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
+from dance_core.formats.bvh import BvhFormat
 from dance_core.synth.dancer import MOVES
 from dance_core.synth.synthetic_dance import make_clip, write_dataset
-from dance_core.formats.bvh import BvhFormat
 
 KW = {"seconds": 20.0, "bpm": (80.0, 140.0), "rate": 11025, "fps": 60.0}
 

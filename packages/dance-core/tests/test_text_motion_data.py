@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from dance_core.contexts import DatasetContext
-from dance_core.synth.dancer import MOVES, PHRASINGS, STAND, all_texts
-from dance_core.synth.synthetic_moves import make_move_clip
 from dance_core.errors import PluginError, RecipeError
 from dance_core.registry import get_registry
+from dance_core.synth.dancer import MOVES, PHRASINGS, STAND, all_texts
+from dance_core.synth.synthetic_moves import make_move_clip
 
 PELVIS, L_HIP, R_HIP, L_ANKLE, R_ANKLE, HEAD, L_WRIST, R_WRIST, L_HAND, R_HAND = 0, 1, 2, 7, 8, 15, 20, 21, 22, 23
 KW = {"seconds": (2.0, 10.0), "bpm": (80.0, 140.0), "rate": 8000, "fps": 30.0}

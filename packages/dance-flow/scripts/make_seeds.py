@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from dance_core.synth.synthetic_dance import make_clip
 from dance_core.formats.bvh import BvhFormat
+from dance_core.synth.synthetic_dance import make_clip
 
 OUT = Path(__file__).resolve().parents[1] / "src" / "dance_flow" / "recipes" / "seeds"
 FPS = 60
