@@ -17,29 +17,21 @@ def _recipe(args: Namespace, extra: list[str] = ()):
 
 def compose(args: Namespace) -> int:
     """``dance compose``: check every input and the output folder, compose, print the files and a summary."""
-    extra = []
-    for field, value in (
-        ("samples", args.samples),
-        ("temperature", args.temperature),
-        ("seconds", args.seconds),
-        ("seed_motion", args.seed_motion),
-    ):
-        if value is not None:
-            extra.append(f"compose.{field}={value}")
-    if args.formats:
-        extra.append(f"compose.formats={json.dumps(args.formats)}")
-    if args.texts:
-        extra.append(f"compose.texts={json.dumps([_text(t).model_dump() for t in args.texts])}")
-    recipe = _recipe(args, extra)
-    songs, checkpoint = _compose_inputs(args, recipe)
+    from dance_core.compose import ComposeOptions, resolve_inputs, run_compose
 
-    from dance_core.compose import compose_songs
-
+    texts = [_text(t) for t in args.texts] if args.texts else None  # a bad --text stops before the recipe loads
+    recipe = _recipe(args)
+    options = ComposeOptions(
+        music=args.music, checkpoint=args.checkpoint, out_dir=args.out, samples=args.samples,
+        seconds=args.seconds, temperature=args.temperature, seed_motion=args.seed_motion, texts=texts,
+        formats=args.formats, overwrite=args.overwrite, shard=args.shard, quiet=args.quiet,
+    )
+    inputs = resolve_inputs(recipe, options)
+    _check_compose_inputs(inputs)
     start = time.perf_counter()
-    result = compose_songs(recipe, music=songs, checkpoint=checkpoint, out_dir=args.out, quiet=args.quiet,
-                           overwrite=args.overwrite, shard=args.shard)
+    result = run_compose(inputs)
     wall = time.perf_counter() - start
-    summary = _compose_summary(recipe, result, args.out or recipe.compose.out_dir, wall)
+    summary = _compose_summary(inputs.recipe, result, inputs.out_dir, wall)
     if args.json:
         print(json.dumps(summary, indent=2))
         return 0
@@ -50,38 +42,35 @@ def compose(args: Namespace) -> int:
     return 0
 
 
-def _compose_inputs(args: Namespace, recipe) -> tuple[list[str] | None, str | None]:
+#: the command-line option that gives each composition input (else it comes from the recipe's compose:)
+_OPTIONS = {"music": "--music", "checkpoint": "--checkpoint", "seed_motion": "--seed-motion", "out_dir": "-o",
+            "temperature": "--temperature"}
+
+
+def _where(inputs, name: str) -> str:
+    """The option an input came from, or its recipe field."""
+    return _OPTIONS[name] if inputs.options.given(name) else f"compose.{name}"
+
+
+def _check_compose_inputs(inputs) -> None:
     """The songs and checkpoint compose will read, and the folder it will write, checked before any work."""
-    from dance_core.checks import check_input_dir, check_input_file, check_output_dir
-    from dance_core.cli.checks import check_smpl_model, warn
+    from dance_core.cli.checks import check_input_file, check_output_dir, check_smpl_model, warn
 
-    c = recipe.compose
-    where = "--music" if args.music else "compose.music"
-    for song in args.music or [recipe.resolve_path(m) for m in c.music]:
-        if Path(song).is_dir():  # a folder of songs, expanded by compose: one line when it holds none
-            from dance_core.compose import audio_files
-            from dance_core.registry import get_registry
-
-            for found in audio_files(check_input_dir(song, where), get_registry(), where):
-                check_input_file(found, where, "audio file")  # an empty file stops before any work
-        else:
+    where = _where(inputs, "music")
+    for music in inputs.music:
+        for song in music.songs(where):  # a folder without songs is one line; an empty file stops before any work
             check_input_file(song, where, "audio file")
-    checkpoint = args.checkpoint or (recipe.resolve_path(c.checkpoint) if c.checkpoint else None)
-    if checkpoint is not None:
-        option = "--checkpoint" if args.checkpoint else "compose.checkpoint"
-        check_input_file(checkpoint, option, "checkpoint", in_folder="model.safetensors")
-    if c.seed_motion not in (None, "rest"):  # as given, else beside the recipe (as compose reads it)
-        given, beside = c.seed_motion, recipe.resolve_path(c.seed_motion)
-        option = "--seed-motion" if args.seed_motion else "compose.seed_motion"
-        seed = check_input_file(beside if not Path(given).exists() and Path(beside).exists() else given, option,
-                                "motion file")
+    if inputs.checkpoint is not None:
+        check_input_file(inputs.checkpoint, _where(inputs, "checkpoint"), "checkpoint", in_folder="model.safetensors")
+    if inputs.seed_motion not in (None, "rest"):  # as given, else beside the recipe (as compose reads it)
+        seed = check_input_file(inputs.seed_motion, _where(inputs, "seed_motion"), "motion file")
         # an AIST++ seed without its SMPL model (formats.smpl.model or --smpl-model) stops before the model loads
-        check_smpl_model([seed], recipe.format_options)
-    check_output_dir(args.out or c.out_dir, "-o" if args.out else "compose.out_dir")
-    if c.temperature > TEMPERATURE_WARN:
-        option = "--temperature" if args.temperature is not None else "compose.temperature"
-        warn(f"{option} {c.temperature:g} is far above 1: the dance will be chaotic (try 0.5 to 1.5)")
-    return args.music, checkpoint
+        check_smpl_model([seed], inputs.recipe.format_options)
+    check_output_dir(inputs.out_dir, _where(inputs, "out_dir"))
+    temperature = inputs.recipe.compose.temperature
+    if temperature > TEMPERATURE_WARN:
+        warn(f"{_where(inputs, 'temperature')} {temperature:g} is far above 1: the dance will be chaotic "
+             "(try 0.5 to 1.5)")
 
 
 #: above this sampling temperature ``dance compose`` warns that the dance will be chaotic
