@@ -54,7 +54,8 @@ def _where(inputs, name: str) -> str:
 
 def _check_compose_inputs(inputs) -> None:
     """The songs and checkpoint compose will read, and the folder it will write, checked before any work."""
-    from dance_core.cli.checks import check_input_file, check_output_dir, check_smpl_model, warn
+    from dance_core.checks import check_input_file, check_output_dir
+    from dance_core.cli.checks import check_smpl_model, warn
 
     where = _where(inputs, "music")
     for music in inputs.music:

@@ -1,0 +1,106 @@
+"""Generating a song's dances with a loaded model: one song at a time, or several songs in one batch."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from dance_core.compose.songs import Song
+from dance_core.errors import DanceError
+from dance_core.model import ComposedModel
+from dance_core.recipe.schema import Recipe
+from dance_core.row_generators import RowGenerators, supports_row_generators
+from dance_core.runtime import generation_threads
+
+
+def batching_note(model: ComposedModel) -> str | None:
+    """Why this model's songs cannot share a batch (``compose.batch_songs``), or None when they can: the
+    head must draw its noise per row (:func:`dance_core.row_generators.supports_row_generators`) and the
+    encoder must be windowed (a song-level encoder has no padding mask and would read the padding)."""
+    head = type(model.head).__name__
+    if model.window.song_level:
+        return f"the encoder ({type(model.encoder).__name__}) reads the whole song, padding included"
+    if not supports_row_generators(model.head):
+        return f"the head ({head}) does not declare per-row random streams (row_generators)"
+    return None
+
+
+def generate_song(
+    model: ComposedModel, song: Song, seed: torch.Tensor, recipe: Recipe, device: torch.device,
+    progress=None,
+) -> np.ndarray:
+    """``compose.samples`` dances of one song, ``(samples, frames, D)`` normalized.
+
+    Each song is generated on its own, its samples as one batch, with the random generator seeded
+    from the recipe's seed: a song's dance does not depend on the other songs in the call.
+    """
+    c = recipe.compose
+    streams = {
+        name: torch.from_numpy(np.ascontiguousarray(np.repeat(values[None], c.samples, axis=0))).to(device)
+        for name, values in song.streams.items()
+    }
+    generation_threads(model, c.samples, device, c.threads)
+    generator = torch.Generator(device=device).manual_seed(recipe.seed)
+    torch.manual_seed(recipe.seed)
+    motion = model.generate(
+        streams,
+        song.n_frames,
+        seed.unsqueeze(0).expand(c.samples, -1, -1).to(device),
+        temperature=c.temperature,
+        keep=c.keep,
+        generator=generator,
+        progress=progress,
+    )
+    motion = motion.float().cpu().numpy()
+    if not np.all(np.isfinite(motion)):
+        raise DanceError(f"{song.path or song.name}: the model produced NaN or inf motion; nothing was written")
+    return motion
+
+
+def generate_songs(
+    model: ComposedModel, songs: list[Song], seed: torch.Tensor, recipe: Recipe, device: torch.device,
+    progress=None,
+) -> list[np.ndarray]:
+    """``compose.samples`` dances of each of several songs generated in one batch, one ``(samples,
+    frames, D)`` array per song (normalized), each trimmed to its song's length.
+
+    Each song's music is padded with its last frame to the longest song (past its own end it is
+    what per-song generation reads there too), and its rows draw from their own generator, seeded as
+    :func:`generate_song` seeds it (:class:`RowGenerators`), so each song gets the noise it would get
+    alone. Its frames equal per-song generation within float rounding (a row's product is not
+    bit-identical at another batch size), and are deterministic for a given batch of songs. Only for
+    models :func:`batching_note` accepts."""
+    c = recipe.compose
+    longest = max(song.n_frames for song in songs)
+    names = list(songs[0].streams)
+    streams = {}
+    for name in names:
+        rows = []
+        for song in songs:
+            values = song.streams[name]
+            if len(values) < longest:
+                values = np.concatenate([values, np.repeat(values[-1:], longest - len(values), axis=0)])
+            rows.append(np.repeat(values[None], c.samples, axis=0))
+        streams[name] = torch.from_numpy(np.ascontiguousarray(np.concatenate(rows))).to(device)
+    batch = len(songs) * c.samples
+    generation_threads(model, batch, device, c.threads)
+    generator = RowGenerators.same_seed(recipe.seed, len(songs), c.samples, device)
+    torch.manual_seed(recipe.seed)
+    motion = model.generate(
+        streams,
+        longest,
+        seed.unsqueeze(0).expand(batch, -1, -1).to(device),
+        temperature=c.temperature,
+        keep=c.keep,
+        generator=generator,
+        progress=progress,
+    )
+    motion = motion.float().cpu().numpy()
+    out = []
+    for k, song in enumerate(songs):
+        part = motion[k * c.samples : (k + 1) * c.samples, : song.n_frames]
+        if not np.all(np.isfinite(part)):
+            raise DanceError(f"{song.path or song.name}: the model produced NaN or inf motion; nothing was written "
+                             "for it")
+        out.append(part)
+    return out

@@ -1,0 +1,88 @@
+"""What composition writes: each song's output set (its dances in every format, and its text spans), grounded."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from dance_core.atomic import OutputSet
+from dance_core.checkpoint import Checkpoint
+from dance_core.compose.songs import Song
+from dance_core.data.motion_info import MotionInfo
+from dance_core.errors import DataError
+from dance_core.protocols import MotionData
+from dance_core.recipe.schema import Recipe
+from dance_core.registry import Registry
+
+
+def output_targets(out: Path, stems: list[str], formats: list, texts: bool) -> list[Path]:
+    """Every file one song's dances are written to (its output set), in write order."""
+    targets = []
+    for stem in stems:
+        targets.extend(out / f"{stem}{format_suffix(entry)}" for entry, _ in formats)
+        if texts:
+            targets.append(out / f"{stem}.texts")
+    return targets
+
+
+def complete(targets: list[Path]) -> bool:
+    """True when every file of a song's output set exists and is not empty. A set is committed by
+    renaming its temporary files in one pass with signals held, so only a kill inside that pass (or
+    files removed by hand) leaves part of a set, and a part is never taken as complete."""
+    return all(t.is_file() and t.stat().st_size > 0 for t in targets)
+
+
+def write_song(
+    song: Song, motion: np.ndarray, stems: list[str], out: Path, formats: list, ckpt: Checkpoint,
+    recipe: Recipe, registry: Registry,
+) -> list[Path]:
+    """Decode, ground and write one song's dances ``(samples, frames, D)`` as one output set (every
+    file or none); returns the motion files written."""
+    c = recipe.compose
+    with OutputSet() as files:
+        for k, stem in enumerate(stems):
+            values = ckpt.stats.motion.invert(motion[k, : song.n_frames])
+            data = ckpt.motion.decode(values, recipe.fps, registry)
+            if c.ground and data.skeleton_motion is not None:
+                data = grounded(data, ckpt.motion, registry)
+            data.meta["audio_path"] = song.path
+            for entry, fmt in formats:
+                fmt.write(data, str(files.path(out / f"{stem}{format_suffix(entry)}")))
+            if song.texts:  # the spans beside the dance, for dance evaluate (MPD at text starts)
+                lines = "".join(f"{t.start:.4f}\t{t.end:.4f}\t{' '.join(t.text.split())}\n" for t in song.texts)
+                files.path(out / f"{stem}.texts").write_text(lines, encoding="utf-8")
+        return [p for p in files.targets() if p.suffix != ".texts"]
+
+
+def grounded(data: MotionData, info: MotionInfo, registry: Registry) -> MotionData:
+    """A decoded skeletal dance on the floor with its feet pinned in contact (``compose.ground``),
+    its frame array encoded again from the grounded motion."""
+    from dance_core.motion.grounding import ground
+
+    motion, report = ground(data.skeleton_motion)
+    data.meta["grounding"] = report.summary()
+    if report.skipped:
+        return data
+    rep = info.build_representation(registry)
+    return replace(data, values=rep.encode(motion).astype(data.values.dtype), skeleton_motion=motion)
+
+
+def format_suffix(entry) -> str:
+    """The suffix a motion format writes (its first registered suffix, else ``.NAME``)."""
+    return (entry.suffixes or ("." + entry.name,))[0]
+
+
+def output_stems(paths: list[str], samples: int) -> list[list[str]]:
+    """Per song, the file stems of its samples; two songs that would write the same files are an error."""
+    seen: dict[str, str] = {}
+    stems = []
+    for path in paths:
+        name = Path(path).stem
+        if name in seen:
+            raise DataError(f"{path}: another song ({seen[name]}) has the same name; their dances would "
+                            "overwrite each other (rename one)")
+        seen[name] = str(path)
+        stems.append([name] if samples == 1 else [f"{name}-{k}" for k in range(samples)])
+    return stems
