@@ -54,7 +54,7 @@ MODEL_CASES = [
     ("head", "tm2d", {"tokenizer": {"codes": 32, "code_dim": 16, "width": 32, "crop": 16},
                       "prior": {"dim": 32, "layers": 2, "text_layers": 1, "heads": 4, "ffn": 64, "dropout": 0.0,
                                 "vocab_size": 40, "context": 6, "radius": 3}},
-     {"window": SONG, "length": 32, "motion_dim": 6, "latent_dim": 16}),
+     {"window": SONG, "length": 32, "motion_dim": 6, "latent_dim": 16, "cond_dims": {"music": 5, "text": 5}}),
     ("encoder", "tm2d-audio", {"dim": 32, "layers": 1, "heads": 4, "ffn": 64, "dropout": 0.0, "radius": 3},
      {"cond_dims": {"music": 5, "beat": 2, "text": 4}, "frames": 37}),
     ("conditioner", "mlp", {"dim": 8}, {}),

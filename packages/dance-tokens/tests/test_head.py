@@ -11,7 +11,8 @@ SONG = Window(0, None, 0)
 
 
 def test_head_and_encoder_pass_the_contract_checks(registry, tiny_head, tiny_encoder):
-    head = check_head("tm2d", tiny_head, window=SONG, length=32, motion_dim=6, latent_dim=16)
+    head = check_head("tm2d", tiny_head, window=SONG, length=32, motion_dim=6, latent_dim=16,
+                      cond_dims={"music": 5, "text": 5})  # the head reads its text stream from the model's streams
     assert (head.frames, head.keep, head.history_frames, head.latent_tokens) == (8, 8, 0, None)
     check_head("tm2d", {**tiny_head, "text_stream": None}, window=SONG, length=16)
     encoder = check_encoder("tm2d-audio", tiny_encoder, cond_dims={"music": 5, "beat": 2, "text": 4}, frames=37)
