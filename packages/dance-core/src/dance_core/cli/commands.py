@@ -6,7 +6,6 @@ import json
 import sys
 import time
 from argparse import Namespace
-from pathlib import Path
 
 
 def _recipe(args: Namespace, extra: list[str] = ()):
@@ -17,19 +16,19 @@ def _recipe(args: Namespace, extra: list[str] = ()):
 
 def compose(args: Namespace) -> int:
     """``dance compose``: check every input and the output folder, compose, print the files and a summary."""
-    from dance_core.compose import ComposeOptions, resolve_inputs, run_compose
+    from dance_core import api
 
     texts = [_text(t) for t in args.texts] if args.texts else None  # a bad --text stops before the recipe loads
     recipe = _recipe(args)
-    options = ComposeOptions(
+    options = api.ComposeOptions(
         music=args.music, checkpoint=args.checkpoint, out_dir=args.out, samples=args.samples,
         seconds=args.seconds, temperature=args.temperature, seed_motion=args.seed_motion, texts=texts,
         formats=args.formats, overwrite=args.overwrite, shard=args.shard, quiet=args.quiet,
     )
-    inputs = resolve_inputs(recipe, options)
+    inputs = api.resolve_inputs(recipe, options)
     _check_compose_inputs(inputs)
     start = time.perf_counter()
-    result = run_compose(inputs)
+    result = api.compose(inputs)
     wall = time.perf_counter() - start
     summary = _compose_summary(inputs.recipe, result, inputs.out_dir, wall)
     if args.json:
@@ -130,9 +129,9 @@ def train(args: Namespace) -> int:
     prints, and an error every rank stopped with is printed once)."""
     import os
 
+    from dance_core import api
     from dance_core.checks import check_output_dir
     from dance_core.errors import DanceError
-    from dance_core.train import run_dir_for
 
     nproc = getattr(args, "nproc_per_node", None)
     if nproc is not None and "RANK" in os.environ:
@@ -145,7 +144,8 @@ def train(args: Namespace) -> int:
     if args.stop_at is not None and args.stop_at > total:
         field = "training.stages" if recipe.training.stages else "training.steps"
         raise DanceError(f"--stop-at {args.stop_at}: the run has {total} steps ({field}); give 1 to {total}")
-    run_dir = run_dir_for(recipe, args.out)
+    options = api.TrainOptions(out=args.out, resume=args.resume, stop_at=args.stop_at, quiet=args.quiet)
+    run_dir = api.run_dir(recipe, options)
     option = "-o" if args.out else "training.output"
     check_output_dir(run_dir, option)
     if args.resume and not run_dir.is_dir():
@@ -154,10 +154,8 @@ def train(args: Namespace) -> int:
         from dance_core.distributed import launch
 
         return launch(_train_argv(args), nproc)
-    from dance_core.train import train as run
-
     try:
-        result = run(recipe, out=args.out, resume=args.resume, quiet=args.quiet, stop_at=args.stop_at)
+        result = api.train(recipe, options)
     except DanceError as exc:
         if os.environ.get("RANK", "0") != "0" and getattr(exc, "all_ranks", False):
             raise SystemExit(1) from None  # every rank stopped with this message: rank 0 prints it, once
