@@ -32,9 +32,9 @@ STACKS = {
 RUN_STACK = """
 import sys, time, warnings
 t0 = time.perf_counter()
-from dance_core.registry import get_registry
-from dance_core.data.features import load_audio
-from dance_core.media import FeatureInputs
+from dance_core import get_registry
+from dance_core import load_audio
+from dance_core import FeatureInputs
 warnings.simplefilter("ignore")
 reg = get_registry()
 audio = load_audio(sys.argv[1], reg)
@@ -58,9 +58,7 @@ def song_60s(tmp: Path) -> Path:
 def in_process(path: Path, names: list[str], repeats: int = 9) -> tuple[float, float]:
     """(median, fastest) seconds to load and extract in a warm process (fresh Audio each time: no
     cache hits); this shared VM's timings scatter by tens of per cent, hence the many repeats."""
-    from dance_core.data.features import load_audio
-    from dance_core.media import FeatureInputs
-    from dance_core.registry import get_registry
+    from dance_core import FeatureInputs, get_registry, load_audio
 
     reg = get_registry()
     extractors = [reg.get("feature", n).build() for n in names]
@@ -77,9 +75,7 @@ def in_process(path: Path, names: list[str], repeats: int = 9) -> tuple[float, f
 
 def per_extractor(path: Path) -> list[tuple[str, float]]:
     """Warm seconds of each extractor alone on the loaded song (decoding excluded)."""
-    from dance_core.data.features import load_audio
-    from dance_core.media import FeatureInputs
-    from dance_core.registry import get_registry
+    from dance_core import FeatureInputs, get_registry, load_audio
 
     reg = get_registry()
     rows = []
@@ -117,8 +113,7 @@ def madmom_vs_port(path: Path) -> dict[str, float]:
     from dance_audio.downbeat_net import downbeat_activations
     from dance_audio.madmom_compat import import_madmom
     from dance_audio.timing import resample
-    from dance_core.data.features import load_audio
-    from dance_core.registry import get_registry
+    from dance_core import get_registry, load_audio
 
     audio = load_audio(path, get_registry())
     y = resample(audio.samples, audio.rate, 44100)
@@ -165,9 +160,7 @@ def long_song(tmp: Path) -> None:
 
     import soundfile as sf
 
-    from dance_core.data.features import load_audio
-    from dance_core.media import FeatureInputs
-    from dance_core.registry import get_registry
+    from dance_core import FeatureInputs, get_registry, load_audio
 
     y, rate = sf.read(SONG.parent / "lets_go_fishin.ogg", dtype="float32")
     y = y.mean(axis=1) if y.ndim > 1 else y

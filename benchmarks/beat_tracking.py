@@ -98,7 +98,7 @@ def score(times: np.ndarray, reference: np.ndarray, downbeats: np.ndarray, ref_d
 def synth_songs(n: int, seed: int, seconds: float):
     """``(name, Audio, true beats, true downbeats, label)`` of ``n`` synthesized songs with tempo drift."""
     from dance_core import Audio
-    from dance_core.synth.music import synthesize
+    from dance_core.synth import synthesize
 
     for k in range(n):
         rng = np.random.default_rng(seed + k)
@@ -148,8 +148,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
 
     from dance_audio.madmom_compat import madmom_available
-    from dance_core import get_registry
-    from dance_core.data.features import load_audio
+    from dance_core import get_registry, load_audio
 
     results: dict[tuple[str, str], list[dict[str, float]]] = {}
     seconds = {"synth": 0.0, "fixtures": 0.0}

@@ -68,8 +68,8 @@ def gt_row(label: str, values: dict, note: str = "") -> str:
 
 def tm2d_runs(protocol: Protocol, test: TestSet, reference) -> list[dict]:
     """The bundled tm2d-small (music only), sampled like every family: one run, no seeds to average."""
-    from dance_core.recipe import load_recipe
-    from dance_core.registry import get_registry
+    from dance_core import get_registry
+    from dance_core.api import load_recipe
 
     if "tm2d-small" not in get_registry().names("recipe"):
         return []

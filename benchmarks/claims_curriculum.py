@@ -51,7 +51,7 @@ def windows(clips, seconds: float = 10.0):
 def over_time(clips, reference, minute: float = 60.0) -> list[dict]:
     """Per minute of the dances: PFF, PFF_rel, AUC_f (over that minute of every dance) and FID_k (its
     10-s windows against the reference's 10-s windows)."""
-    from dance_core.evaluation.report import evaluate
+    from dance_core.api import EvaluateOptions, evaluate
 
     ref_windows = windows(reference)
     length = min(len(c.positions) for c in clips) / clips[0].fps
@@ -59,8 +59,8 @@ def over_time(clips, reference, minute: float = 60.0) -> list[dict]:
     for m in range(max(1, int(length // minute))):
         a, b = int(m * minute * clips[0].fps), int((m + 1) * minute * clips[0].fps)
         part = [replace(c, positions=np.asarray(c.positions)[a:b], music_beats=None) for c in clips]
-        v = evaluate(part, reference, ["freezing"]).values()
-        v.update(evaluate(windows(part), ref_windows, ["fid-k"]).values())
+        v = evaluate(part, reference, EvaluateOptions(metrics=["freezing"])).values()
+        v.update(evaluate(windows(part), ref_windows, EvaluateOptions(metrics=["fid-k"])).values())
         out.append({k: (None if v.get(k) is None else float(v[k])) for k in ("PFF", "PFF_rel", "AUC_f", "FID_k")})
     return out
 
@@ -70,7 +70,7 @@ def run(protocol: Protocol, short: TestSet | None = None) -> dict:
     with ``short``, the claims table's metrics on those test songs: the DanceRevolution row)."""
     from claims_protocol import score
 
-    from dance_core.recipe import load_recipe
+    from dance_core.api import load_recipe
 
     test = TestSet(protocol, protocol.long_seconds, protocol.long_songs, tag="long", dances=1)
     reference = reference_clips(protocol)

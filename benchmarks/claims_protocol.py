@@ -14,7 +14,6 @@ Each finished run writes one JSON file into the cache folder, so a re-run skips 
 
 from __future__ import annotations
 
-import hashlib
 import json
 import shutil
 import time
@@ -94,7 +93,7 @@ class Protocol:
 
 def source(index: int, seconds: float, homogeneous: bool = False):
     """Clip ``index`` (song ``index // 3``, dance ``index % 3``) of the protocol's generator."""
-    from dance_core.synth.synthetic_dance import make_clip
+    from dance_core.synth import make_clip
 
     return make_clip(index, seed=0, seconds=seconds, bpm=BPM, rate=22050, fps=FPS, dances_per_song=DANCES,
                      tracker="librosa", dancers=None, homogeneous=homogeneous)
@@ -102,7 +101,7 @@ def source(index: int, seconds: float, homogeneous: bool = False):
 
 def joint_clip(src, name: str | None = None, cut: float = SEED_SECONDS):
     """A source's dance as a ``JointClip`` with its beats, the first ``cut`` seconds removed."""
-    from dance_core.protocols import JointClip
+    from dance_core import JointClip
 
     motion = src.motion.skeleton_motion
     return trimmed(JointClip(name or src.name, motion.positions(), motion.fps, list(motion.skeleton.names),
@@ -124,7 +123,7 @@ class TestSet:
 
     def __init__(self, protocol: Protocol, seconds: float, songs: int, homogeneous: bool = False, tag: str = "test",
                  dances: int = DANCES):
-        from dance_core.synth.synthetic_dance import write_clip
+        from dance_core.synth import write_clip
 
         self.seconds, self.homogeneous = seconds, homogeneous
         first = TRAIN_SONGS * DANCES
@@ -151,45 +150,38 @@ def reference_clips(protocol: Protocol, homogeneous: bool = False):
 # ---------------------------------------------------------------- training
 
 
-class _MemoClips:
-    """Feature extraction shared by every run of the process (same audio + features = same streams)."""
+class _MemoData:
+    """Data prepared once for every run of the process with the same dataset, motion and features."""
 
     def __init__(self):
-        self.sources, self.streams = {}, {}
+        self.on, self.prepared = False, {}
 
     def install(self):
-        """Wrap ``dance_core.train``'s ``dataset_sources`` and ``to_clip`` with this process's memo."""
-        import dance_core.train as T
-        from dance_core.data.prepare import Clip, dataset_sources, to_clip
+        """Share prepared data between the runs of this process from now on."""
+        self.on = True
 
-        def sources(recipe):
-            key = json.dumps([recipe.data.dataset.model_dump(mode="json"), recipe.data.mirror, recipe.fps,
-                              recipe.motion.model_dump(mode="json") if recipe.motion else None], sort_keys=True)
-            if key not in self.sources:
-                self.sources[key] = dataset_sources(recipe)
-            return self.sources[key]
+    def data(self, recipe):
+        """The recipe's prepared data (``dance_core.api.prepare_data``), shared; None when not installed."""
+        if not self.on:
+            return None
+        from dance_core.api import prepare_data
 
-        def clip(src, stack, registry):
-            if src.audio is None or abs(src.motion.fps - stack.fps) > 1e-6:
-                return to_clip(src, stack, registry)
-            key = (hashlib.sha1(np.ascontiguousarray(src.audio.samples).tobytes()).hexdigest(),
-                   json.dumps(stack.signature, sort_keys=True, default=str), stack.fps, len(src.motion.values))
-            if key not in self.streams:
-                self.streams[key] = to_clip(src, stack, registry)
-            done = self.streams[key]
-            n = len(done.motion)
-            return Clip(src.name, np.asarray(src.motion.values[:n]), done.streams, src.meta.get("song", ""))
-
-        T.dataset_sources, T.to_clip = sources, clip
+        key = json.dumps([recipe.data.dataset.model_dump(mode="json"), recipe.data.mirror, recipe.fps,
+                          recipe.motion.model_dump(mode="json") if recipe.motion else None,
+                          {k: [s.model_dump(mode="json") for s in v] for k, v in recipe.features.items()}],
+                         sort_keys=True)
+        if key not in self.prepared:
+            self.prepared[key] = prepare_data(recipe)
+        return self.prepared[key]
 
 
-MEMO = _MemoClips()
+MEMO = _MemoData()
 
 
 def trainer_class():
     """``Trainer`` with a fixed validation context (every schedule at ``val_values``: a curriculum head is
     validated teacher-forced, so its validation loss compares across steps) and a settable epoch length."""
-    from dance_core.train import Trainer
+    from dance_core.api import Trainer
 
     class PlateauTrainer(Trainer):
         val_values: dict = {}
@@ -214,7 +206,7 @@ def train_to_plateau(recipe, out: Path, protocol: Protocol, epoch_steps: int | N
         shutil.rmtree(out)
     out.mkdir(parents=True)
     t0 = time.perf_counter()
-    trainer = trainer_class()(recipe, out, quiet=True)
+    trainer = trainer_class()(recipe, out, quiet=True, data=MEMO.data(recipe))
     trainer.val_values = dict(val_values or {})
     if epoch_steps:
         trainer.steps_per_epoch = epoch_steps
@@ -244,25 +236,19 @@ def generate(recipe, checkpoint: str, songs: list[Path], beats: dict, samples: i
              seconds: float | None = None, resample_to: float | None = FPS):
     """``samples`` dances per song (``SONG-k``), as ``JointClip``s at ``resample_to`` fps with the songs'
     beats, seed span cut; and the frames generated per second."""
-    import torch
+    from dance_core import JointClip
+    from dance_core.api import Composer
 
-    from dance_core.compose import generate_song, grounded, load_model, seed_motion
-    from dance_core.protocols import JointClip
-    from dance_core.registry import get_registry
-
-    registry = get_registry()
     recipe = recipe.model_copy(update={"compose": recipe.compose.model_copy(
         update={"samples": samples, "temperature": temperature, "threads": 1})})
-    model, ckpt, stack = load_model(recipe, checkpoint, torch.device("cpu"))
-    seed = torch.from_numpy(seed_motion("rest", ckpt, model.start_frames(), registry))
+    composer = Composer(recipe, checkpoint, device="cpu")
+    seed = composer.seed("rest")
     clips, frames, t0 = [], 0, time.perf_counter()
     for path in songs:
-        song = song_inputs(path, stack, ckpt, registry)
-        motion = generate_song(model, song, seed, recipe, torch.device("cpu"))
+        song = song_inputs(path, composer)
+        motion = composer.generate(song, seed)
         frames += motion.shape[0] * song.n_frames
-        for k in range(samples):
-            data = ckpt.motion.decode(ckpt.stats.motion.invert(motion[k, : song.n_frames]), recipe.fps, registry)
-            data = grounded(data, ckpt.motion, registry)
+        for k, data in enumerate(composer.dances(song, motion, ground=True)):
             sm = data.skeleton_motion
             if resample_to and abs(sm.fps - resample_to) > 1e-6:
                 sm = sm.resample(resample_to)
@@ -274,15 +260,16 @@ def generate(recipe, checkpoint: str, songs: list[Path], beats: dict, samples: i
 _RAW: dict = {}
 
 
-def song_inputs(path: Path, stack, ckpt, registry):
-    """``compose.load_song`` with the raw features kept for the process (every model composes the same
+def song_inputs(path: Path, composer):
+    """``Composer.song`` with the raw features kept for the process (every model composes the same
     songs with the same features; only the standardization differs)."""
-    from dance_core.compose import Song
-    from dance_core.data.features import load_audio
+    from dance_core import load_audio
+    from dance_core.api import Song
 
+    stack, ckpt = composer.stack, composer.checkpoint
     key = (str(path), json.dumps(stack.signature, sort_keys=True, default=str), stack.fps)
     if key not in _RAW:
-        audio = load_audio(str(path), registry)
+        audio = load_audio(str(path), composer.registry)
         _RAW[key] = stack.extract(audio.n_frames(stack.fps), audio, ())
     raw = _RAW[key]
     streams = {name: ckpt.stats.streams[name].apply(values) for name, values in raw.items()}
@@ -291,9 +278,9 @@ def song_inputs(path: Path, stack, ckpt, registry):
 
 def score(generated, reference, metrics=METRICS) -> dict:
     """The metrics' values as a flat dict of floats (skipped metrics absent)."""
-    from dance_core.evaluation.report import evaluate
+    from dance_core.api import EvaluateOptions, evaluate
 
-    report = evaluate(generated, reference, metrics)
+    report = evaluate(generated, reference, EvaluateOptions(metrics=metrics))
     return {k: float(v) for k, v in report.values().items() if v is not None}
 
 
@@ -307,7 +294,7 @@ CACHED_ONLY = False
 def cached(protocol: Protocol, key: str, fn) -> dict | None:
     """``fn()``'s JSON result, from ``cache/results/key.json`` when a previous run finished it (None when
     it did not and ``CACHED_ONLY`` is set)."""
-    from dance_core.atomic import write_text
+    from dance_core import write_text
 
     path = protocol.cache / "results" / f"{key}.json"
     if path.exists():

@@ -15,8 +15,7 @@ def run_family(protocol: Protocol, key: str, recipe_name: str, extra: list[str],
     test song at every temperature; the held-out NLL of the test songs' real dances (None: no likelihood)."""
 
     def fresh() -> dict:
-        from dance_core.likelihood import held_out_nll
-        from dance_core.recipe import load_recipe
+        from dance_core.api import held_out_nll, load_recipe
 
         MEMO.install()
         recipe = load_recipe(recipe_name, [*protocol.common(homogeneous), *extra, f"seed={seed}"])

@@ -24,10 +24,7 @@ from pathlib import Path
 
 import torch
 
-from dance_core.compose import generate_song, generate_songs, load_model, load_song, seed_motion, write_song
-from dance_core.recipe import load_recipe
-from dance_core.registry import get_registry
-from dance_core.runtime import pick_device
+from dance_core.api import Composer, load_recipe
 
 FIXTURE = "/work/shared/fixtures/audio/vibe_ace.ogg"
 FIXTURES = "/work/shared/fixtures/audio"
@@ -47,40 +44,33 @@ def timings(frames: int, wall: float, t_features: float, t_generate: float, end:
     }
 
 
-def compose_once(recipe, model, ckpt, stack, song_path: str, out: Path, device) -> dict:
+def compose_once(composer: Composer, song_path: str, out: Path) -> dict:
     """One song composed with the recipe's ``compose.samples`` streams, timed phase by phase."""
-    c, registry = recipe.compose, get_registry()
-    formats = [(e, e.build()) for e in (registry.find("motion-format", f) for f in c.formats)]
-    seed = torch.from_numpy(seed_motion(None, ckpt, model.start_frames(), registry))
+    c = composer.recipe.compose
+    seed = composer.seed("rest")
     wall, cpu = time.perf_counter(), time.process_time()
-    song = load_song(song_path, stack, ckpt, c.seconds, registry)
+    song = composer.song(song_path, texts=[])
     t_features = time.perf_counter()
-    motion = generate_song(model, song, seed, recipe, device)
+    motion = composer.generate(song, seed)
     t_generate = time.perf_counter()
-    stems = [f"{song.name}-{k}" for k in range(c.samples)]
-    write_song(song, motion, stems, out, formats, ckpt, recipe, registry)
+    composer.write(song, motion, out, [f"{song.name}-{k}" for k in range(c.samples)])
     end, cpu = time.perf_counter(), time.process_time() - cpu
     frames = c.samples * song.n_frames
     return timings(frames, wall, t_features, t_generate, end, cpu)
 
 
-def compose_songs_once(recipe, model, ckpt, stack, songs: list[tuple[str, float]], out: Path, device,
-                       batched: bool) -> dict:
+def compose_songs_once(composer: Composer, songs: list[tuple[str, float]], out: Path, batched: bool) -> dict:
     """Several songs (path, seconds) × ``compose.samples``, one after another or in one batch, timed."""
-    c, registry = recipe.compose, get_registry()
-    formats = [(e, e.build()) for e in (registry.find("motion-format", f) for f in c.formats)]
-    seed = torch.from_numpy(seed_motion(None, ckpt, model.start_frames(), registry))
+    c = composer.recipe.compose
+    seed = composer.seed("rest")
     wall, cpu = time.perf_counter(), time.process_time()
-    loaded = [load_song(path, stack, ckpt, seconds, registry) for path, seconds in songs]
+    loaded = [composer.song(path, seconds, texts=[]) for path, seconds in songs]
     t_features = time.perf_counter()
-    if batched:
-        motions = generate_songs(model, loaded, seed, recipe, device)
-    else:
-        motions = [generate_song(model, song, seed, recipe, device) for song in loaded]
+    motions = (composer.generate_batch(loaded, seed) if batched
+               else [composer.generate(song, seed) for song in loaded])
     t_generate = time.perf_counter()
     for song, motion in zip(loaded, motions, strict=True):
-        write_song(song, motion, [f"{song.name}-{k}" for k in range(c.samples)], out, formats, ckpt, recipe,
-                   registry)
+        composer.write(song, motion, out, [f"{song.name}-{k}" for k in range(c.samples)])
     end, cpu = time.perf_counter(), time.process_time() - cpu
     frames = c.samples * sum(song.n_frames for song in loaded)
     return timings(frames, wall, t_features, t_generate, end, cpu)
@@ -123,10 +113,9 @@ def main() -> None:
         for streams in args.streams:
             recipe = load_recipe(args.recipe, [f"compose.samples={streams}", f"compose.seconds={args.seconds}",
                                                f"compose.formats=[{args.format}]"])
-            device = pick_device(recipe.compose.device, recipe.compose.threads)
-            model, ckpt, stack = load_model(recipe, recipe.resolve_path(recipe.compose.checkpoint), device)
-            runs, load = measure(partial(compose_once, recipe, model, ckpt, stack, args.music, Path(tmp), device),
-                                 args.repeats)
+            composer = Composer(recipe)
+            device = composer.device
+            runs, load = measure(partial(compose_once, composer, args.music, Path(tmp)), args.repeats)
             row = summary(runs)
             row.update(recipe=args.recipe, streams=streams, what=f"1 song x {streams}",
                        threads=torch.get_num_threads(), load=load, device=str(device))
@@ -139,10 +128,9 @@ def main() -> None:
                 k = args.songs if batched else 1
                 recipe = load_recipe(args.recipe, ["compose.samples=1", f"compose.batch_songs={k}",
                                                    f"compose.formats=[{args.format}]"])
-                device = pick_device(recipe.compose.device, recipe.compose.threads)
-                model, ckpt, stack = load_model(recipe, recipe.resolve_path(recipe.compose.checkpoint), device)
-                runs, load = measure(partial(compose_songs_once, recipe, model, ckpt, stack, songs, Path(tmp), device,
-                                             batched), args.repeats)
+                composer = Composer(recipe)
+                device = composer.device
+                runs, load = measure(partial(compose_songs_once, composer, songs, Path(tmp), batched), args.repeats)
                 row = summary(runs)
                 row.update(recipe=args.recipe, streams=args.songs, threads=torch.get_num_threads(), load=load,
                            what=f"{args.songs} songs x 1, " + ("one batch" if batched else "per song"),

@@ -11,11 +11,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from dance_core.compose import compose
-from dance_core.data.synthetic_beats import click_track
-from dance_core.formats.wav import write_wav
-from dance_core.recipe import load_recipe
-from dance_core.train import Trainer
+from dance_core.api import ComposeOptions, Trainer, compose, load_recipe, write_wav
+from dance_core.synth import click_track
 
 
 def main() -> None:
@@ -39,7 +36,8 @@ def main() -> None:
         for samples in (1, 8):
             r = load_recipe("core-synthetic", [f"compose.samples={samples}"])
             t3 = time.perf_counter()
-            compose(r, music=[str(song)], checkpoint=str(result.checkpoint), out_dir=str(Path(tmp) / "out"), quiet=True)
+            options = ComposeOptions(music=[song], checkpoint=result.checkpoint, out_dir=Path(tmp) / "out", quiet=True)
+            compose(r, options)
             t4 = time.perf_counter()
             frames = 1200 * samples
             rows.append(

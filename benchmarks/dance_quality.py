@@ -87,17 +87,17 @@ class Row:
 
 def registry():
     """Core's registry with every installed plugin."""
-    from dance_core.registry import get_registry
+    from dance_core import get_registry
 
     return get_registry()
 
 
 def read_dance(path: Path) -> Dance:
     """A motion file as a Y-up dance in metres (the loading helpers of ``dance evaluate``)."""
-    from dance_core.evaluation.clips import z_up_to_y_up
-    from dance_core.evaluation.loading import joint_positions, read_motion_file
+    from dance_core.api import read_motion
+    from dance_core.evaluation import joint_positions, z_up_to_y_up
 
-    data = read_motion_file(path, registry())
+    data = read_motion(path)
     positions, names, up = joint_positions(data, str(path))
     if up == "z":
         positions = z_up_to_y_up(positions)
@@ -108,7 +108,7 @@ def read_dance(path: Path) -> Dance:
 
 def song_audio(song: Path):
     """The song read by the registered audio readers."""
-    from dance_core.data.features import load_audio
+    from dance_core import load_audio
 
     return load_audio(song, registry())
 
@@ -177,7 +177,7 @@ def write_time(folder: Path, stem: str, wall: float, cpu: float) -> None:
 
 def reference_dances(n: int, fps: float) -> list[tuple[str, Dance, np.ndarray]]:
     """The synthetic dancer's first ``n`` dances at ``fps`` with their known beats."""
-    from dance_core.synth.synthetic_dance import make_clip
+    from dance_core.synth import make_clip
 
     out = []
     for i in range(n):
@@ -198,28 +198,28 @@ def reference_dances(n: int, fps: float) -> list[tuple[str, Dance, np.ndarray]]:
 
 def score_dances(model: str, song: str, dances: list[Dance], beats: np.ndarray) -> Row:
     """Every quality measure of the dances of one song (means over the samples) and their diversity."""
-    from dance_core.evaluation.quality import diversity, quality_scores
+    from dance_core.evaluation import quality_scores, sample_diversity
 
     per = [quality_scores(d.positions, d.fps, beats, d.names, d.parents) for d in dances]
     keys = per[0].keys()
     mean = {
         k: float(np.nanmean([p[k] for p in per])) if any(np.isfinite(p[k]) for p in per) else float("nan") for k in keys
     }
-    div = diversity([d.positions for d in dances]) if len(dances) > 1 else float("nan")
+    div = sample_diversity([d.positions for d in dances]) if len(dances) > 1 else float("nan")
     return Row(model, song, mean, len(dances), div)
 
 
 def reference_means(refs: list[tuple[str, Dance, np.ndarray]], fps: float) -> dict[str, float]:
     """Mean speed and jerk of the reference dances, and the diversity of three synthetic dances of one song."""
-    from dance_core.evaluation.quality import diversity, smoothness
-    from dance_core.synth.synthetic_dance import make_clip
+    from dance_core.evaluation import sample_diversity, smoothness
+    from dance_core.synth import make_clip
 
     values = [smoothness(d.positions, d.fps) for _, d, _ in refs]
     out = {k: float(np.mean([v[k] for v in values])) for k in ("speed", "jerk")}
     same_song = [
         make_clip(k, fps=fps, dances_per_song=3, **REFERENCE).motion.skeleton_motion.positions() for k in range(3)
     ]
-    out["diversity"] = diversity(same_song)
+    out["diversity"] = sample_diversity(same_song)
     return out
 
 

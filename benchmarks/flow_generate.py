@@ -18,8 +18,7 @@ import time
 
 import torch
 
-from dance_core.model import build_model
-from dance_core.recipe import load_recipe
+from dance_core.api import Composer, build_model, load_recipe
 
 MOTION_DIM = 75  # synthetic dancer: root deltas + 24 expmaps (the paper's is 67-69)
 MUSIC_DIM = 83  # 80 mel + onset + 2 madmom downbeat activations
@@ -34,10 +33,9 @@ def time_generate(
     recipe = load_recipe(recipe_name)
     torch.manual_seed(0)
     if checkpoint:
-        from dance_core.compose import load_model
-
-        model, ckpt, stack = load_model(recipe, checkpoint, torch.device(device))
-        motion_dim, music_dim = ckpt.motion.dim, stack.dims()["music"]
+        composer = Composer(recipe, checkpoint, device=device)
+        model = composer.model
+        motion_dim, music_dim = composer.checkpoint.motion.dim, composer.stack.dims()["music"]
     else:
         motion_dim, music_dim = MOTION_DIM, MUSIC_DIM
         model = build_model(recipe, motion_dim, {"music": music_dim}).to(device).eval()

@@ -31,13 +31,8 @@ from pathlib import Path
 import torch
 from torch.utils.flop_counter import FlopCounterMode
 
-from dance_core.compose import batching_note
-from dance_core.data.features import FeatureStack
-from dance_core.model import ComposedModel, build_model
-from dance_core.protocols import TrainContext
-from dance_core.recipe import load_recipe
-from dance_core.recipe.schema import Recipe
-from dance_core.row_generators import RowGenerators
+from dance_core import RowGenerators, TrainContext
+from dance_core.api import ComposedModel, Recipe, batching_note, build_model, load_recipe, stream_dims
 
 #: peak dense bf16 tensor FLOP/s (TFLOP/s) by a substring of ``torch.cuda.get_device_name()``
 PEAK_TFLOPS = {"H200": 989.0, "H100": 989.0, "GH200": 989.0, "A100": 312.0, "L40S": 362.0, "L4": 121.0,
@@ -94,7 +89,7 @@ def autocast(device: torch.device, precision: str):
 
 def build(recipe: Recipe, device: torch.device) -> tuple[ComposedModel, int, dict[str, int]]:
     """The recipe's model, untrained, on ``device``, with its motion and stream widths."""
-    dims = FeatureStack(recipe).dims()
+    dims = stream_dims(recipe)
     motion_dim = MOTION_DIM.get(recipe.motion.plugin if recipe.motion else "", 76)
     torch.manual_seed(0)
     return build_model(recipe, motion_dim, dims).to(device), motion_dim, dims

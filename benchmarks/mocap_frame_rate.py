@@ -81,9 +81,9 @@ class Take:
     """One BVH take: world positions (T, J+E, 3) with End Sites named ``<parent>_end``, header fps, leg length."""
 
     def __init__(self, path: Path):
-        from dance_core.formats.bvh import BvhFormat
+        from dance_core.api import read_motion
 
-        motion = BvhFormat().read_motion(path)
+        motion = read_motion(path, "bvh").skeleton_motion
         skel = motion.skeleton
         self.name, self.header_fps, self.skeleton = path.stem, float(motion.fps), skel
         self.frames = motion.positions(end_sites=True).shape[0]
@@ -439,8 +439,8 @@ def _measures(pos: np.ndarray, ix: dict[str, int], m: dict[str, str], top: float
 
 def proportions(folder: Path) -> None:
     """Print body proportions of each CMU subject's rest pose and of dance24, as fractions of leg and height."""
-    from dance_core.formats.bvh import BvhFormat
-    from dance_core.motion.skeletons import dance24
+    from dance_core.api import read_motion
+    from dance_core.motion import dance24
 
     cmu_map = dict(
         hip_r="rThigh",
@@ -458,7 +458,7 @@ def proportions(folder: Path) -> None:
     cols = {}
     offsets = {}
     for subject, take in (("60", "salsa_60_01"), ("61", "salsa_61_01"), ("5", "modern_05_02")):
-        skel = BvhFormat().read_motion(folder / f"{take}.bvh").skeleton
+        skel = read_motion(folder / f"{take}.bvh", "bvh").skeleton_motion.skeleton
         pos, ix = _rest(skel)
         floor = pos[ix["rFoot_end"], 1]
         eye = (pos[ix["leftEye_end"], 1] + pos[ix["rightEye_end"], 1]) / 2 - floor

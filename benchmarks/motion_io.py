@@ -33,9 +33,9 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--jobs", type=int, default=2)
     args = parser.parse_args()
-    from dance_core.formats.bvh import BvhFormat
-    from dance_core.render.preview import render
-    from dance_core.synth.synthetic_dance import make_clip, write_dataset
+    from dance_core import get_registry
+    from dance_core.api import render, write_wav
+    from dance_core.synth import make_clip, write_dataset
 
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     machine = platform.processor() or platform.machine()
@@ -45,13 +45,11 @@ def main() -> None:
         timed(f"dance synth: {args.songs} songs x {args.seconds:g} s at 60 fps, {args.jobs} jobs",
               lambda: write_dataset(tmp / "synth", args.songs, 0, args.seconds, 60.0, jobs=args.jobs))
         if CMU.exists():
-            fmt = BvhFormat()
+            fmt = get_registry().create("motion-format", "bvh")  # the BVH format at its defaults
             motion = timed("BVH read cmu_01_01 (2752 frames, 31 joints)", lambda: fmt.read_motion(CMU))
             timed("BVH write cmu_01_01", lambda: fmt.write_motion(motion, tmp / "cmu.bvh"))
             timed("forward kinematics, 2752 frames", motion.positions)
         clip = make_clip(0, seed=0, seconds=30.0, bpm=(80.0, 140.0), rate=22050, fps=20.0)
-        from dance_core.formats.wav import write_wav
-
         write_wav(tmp / "song.wav", clip.audio.samples, clip.audio.rate)
         dance = clip.motion.skeleton_motion
         for suffix in ("gif", "mp4", "html"):

@@ -9,7 +9,7 @@ README = Path(__file__).resolve().parent / "README.md"
 
 def write_section(name: str, text: str, readme: Path = README) -> None:
     """Replace what stands between ``<!-- name:start -->`` and ``<!-- name:end -->``, atomically."""
-    from dance_core.atomic import write_text
+    from dance_core import write_text
 
     start, end = f"<!-- {name}:start -->", f"<!-- {name}:end -->"
     current = readme.read_text(encoding="utf-8")

@@ -36,17 +36,17 @@ HOP = 0.5
 
 def stats(motion) -> np.ndarray:
     """Window statistics of a skeletal motion."""
-    from dance_core.evaluation.realism import window_statistics
+    from dance_core.evaluation import window_statistics
 
     return window_statistics(motion.positions(), motion.fps, motion.skeleton.names, hop=HOP)
 
 
 def real_takes(folder: Path) -> dict:
     """Every CMU take on dance24 at 30 fps (cached by the mocap dataset)."""
-    from dance_core.data.dataset_configs import MocapDatasetConfig
-    from dance_core.data.mocap import MocapDataset
+    from dance_core import DatasetContext, get_registry
 
-    clips = MocapDataset(MocapDatasetConfig(path=str(folder)), FPS).clips()
+    dataset = get_registry().create("dataset", "mocap", {"path": str(folder)}, DatasetContext(fps=FPS))
+    clips = dataset.clips()
     return {c.name: c.motion.skeleton_motion for c in clips}
 
 
@@ -58,8 +58,8 @@ def halves(motion) -> tuple:
 
 def statue(beats: np.ndarray, seconds: float, fps: float = FPS):
     """dance24 rigid in its T-pose, 4 cm down on every beat and swaying 10 cm every 2 s."""
-    from dance_core.motion.motion import Motion
-    from dance_core.motion.skeletons import dance24
+    from dance_core import Motion
+    from dance_core.motion import dance24
 
     skel = dance24()
     t = np.arange(int(seconds * fps)) / fps
@@ -72,8 +72,8 @@ def statue(beats: np.ndarray, seconds: float, fps: float = FPS):
 
 def still(seconds: float, fps: float = FPS):
     """dance24 standing still in its rest pose."""
-    from dance_core.motion.motion import Motion
-    from dance_core.motion.skeletons import dance24
+    from dance_core import Motion
+    from dance_core.motion import dance24
 
     skel = dance24()
     n = int(seconds * fps)
@@ -82,7 +82,7 @@ def still(seconds: float, fps: float = FPS):
 
 def synthetic(n: int, seconds: float) -> list:
     """``n`` dances of the synthetic dancer with their beat times."""
-    from dance_core.synth.synthetic_dance import make_clip
+    from dance_core.synth import make_clip
 
     out = []
     for i in range(n):
@@ -94,25 +94,24 @@ def synthetic(n: int, seconds: float) -> list:
 def song_beats(song: Path) -> np.ndarray:
     """Beat times of a song from dance-audio's default tracker."""
     from dance_audio.beats import track_beats
-    from dance_core.data.features import load_audio
-    from dance_core.registry import get_registry
+    from dance_core import get_registry, load_audio
 
     return np.asarray(track_beats(load_audio(song, get_registry()), tracker="flux").times, np.float64)
 
 
 def compose(model: str, song: Path, out: Path, samples: int, seconds: float) -> list:
     """Dances of a bundled model for a song (``dance compose``), read back."""
-    from dance_core.formats.bvh import BvhFormat
+    from dance_core.api import read_motion
 
     cmd = [sys.executable, "-m", "dance_core.cli.main", "-q", "compose", model, "--music", str(song), "-o", str(out),
            "--samples", str(samples), "--set", f"compose.seconds={seconds}"]
     subprocess.run(cmd, check=True, cwd=ROOT)
-    return [BvhFormat().read_motion(p).resample(FPS) for p in sorted(out.glob(f"{song.stem}*.bvh"))]
+    return [read_motion(p, "bvh").skeleton_motion.resample(FPS) for p in sorted(out.glob(f"{song.stem}*.bvh"))]
 
 
 def row(name: str, windows: np.ndarray, reference: np.ndarray, scale: float, locking=None) -> dict:
     """One table row: distance, its ratio to the real scale, per-statistic medians, locking."""
-    from dance_core.evaluation.realism import STATISTICS, realism_distance
+    from dance_core.evaluation import STATISTICS, realism_distance
 
     lo, hi = np.percentile(reference, 10, axis=0), np.percentile(reference, 90, axis=0)
     med = np.median(windows, axis=0)
@@ -128,7 +127,7 @@ def row(name: str, windows: np.ndarray, reference: np.ndarray, scale: float, loc
 
 def locking_of(motion, beats) -> dict:
     """Body locking of one dance."""
-    from dance_core.evaluation.realism import body_locking
+    from dance_core.evaluation import body_locking
 
     return body_locking(motion.positions(), motion.fps, motion.skeleton.names, beats)
 
@@ -143,7 +142,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seconds", type=float, default=30.0)
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
-    from dance_core.evaluation.realism import STATISTICS, realism_distance
+    from dance_core.evaluation import STATISTICS, realism_distance
 
     started = time.time()
     takes = real_takes(args.mocap)

@@ -49,14 +49,21 @@ from pathlib import Path
 
 import numpy as np
 
-from dance_core.formats.bvh import BvhFormat
-from dance_core.motion.grounding import GroundingOptions, find_feet, foot_contacts, foot_speeds, sole_heights
-from dance_core.motion.motion import Motion
-from dance_core.motion.retarget import RigFrames, retarget, rig_frames
-from dance_core.motion.rig_maps import renamed
-from dance_core.motion.rotations import expmap_to_quat, quat_rotate
-from dance_core.motion.skeleton import Skeleton
-from dance_core.motion.skeletons import dance24
+from dance_core import Motion, Skeleton
+from dance_core.api import read_motion, retarget
+from dance_core.motion import (
+    GroundingOptions,
+    RigFrames,
+    dance24,
+    expmap_to_quat,
+    find_feet,
+    foot_contacts,
+    foot_speeds,
+    quat_rotate,
+    renamed,
+    rig_frames,
+    sole_heights,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / ".." / "shared" / "mocap" / "cmu-dance"
@@ -124,7 +131,7 @@ class Played:
     @classmethod
     def of(cls, motion: Motion, rig: RigFrames | None = None) -> Played:
         """FK of ``motion`` (its rig's frames computed unless given)."""
-        from dance_core.motion.fk import end_site_positions, forward_kinematics
+        from dance_core.motion import end_site_positions, forward_kinematics
 
         rig = rig or rig_frames(motion.skeleton)
         pos, rot = forward_kinematics(motion.skeleton, motion.root, motion.rotations)
@@ -264,7 +271,7 @@ def onto(src: Played, out: Motion, seconds: float) -> dict:
 
 def measure_take(path: Path, rigs: dict[str, Skeleton], seed: int = 0) -> dict:
     """Every row of the benchmark for one take."""
-    take = BvhFormat().read_motion(path)
+    take = read_motion(path, "bvh").skeleton_motion
     take = take.crop(SKIP)
     src = Played.of(take)
     rows: dict[str, dict] = {"source take": foot_measures(src)}

@@ -35,8 +35,7 @@ def peak_mb() -> float:
 
 def paper_model(motion_dim: int = 50, recipe_name: str = "dancerevolution"):
     """The recipe's model on 438-d music features, in eval mode."""
-    from dance_core.model import build_model
-    from dance_core.recipe import load_recipe
+    from dance_core.api import build_model, load_recipe
 
     return build_model(load_recipe(recipe_name), motion_dim, {"music": 438}).eval()
 
@@ -70,7 +69,7 @@ def measure_generation(recipe_name: str, seconds: float, threads: int) -> dict:
     """Generate one dance for ``seconds`` of music (encoder once, then frame-by-frame LSTM)."""
     import torch
 
-    from dance_core.recipe import load_recipe
+    from dance_core.api import load_recipe
 
     torch.set_num_threads(threads)
 

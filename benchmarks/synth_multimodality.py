@@ -33,10 +33,9 @@ from collections import Counter, defaultdict
 
 import numpy as np
 
-from dance_core.evaluation.canon import SMPL_HIPS, canonicalize
-from dance_core.evaluation.move_validity import MoveValidity
-from dance_core.protocols import JointClip
-from dance_core.synth.synthetic_dance import make_clip
+from dance_core import JointClip
+from dance_core.evaluation import SMPL_HIPS, MoveValidity, canonicalize
+from dance_core.synth import make_clip
 
 FPS, STEP = 30.0, 3  # generated at 30 fps, compared at 10 fps
 PAST, FUTURE = 20, 5  # 2 s and 0.5 s at 10 fps

@@ -57,22 +57,17 @@ PAPER_FUSION = 0.8
 
 
 def load(recipe: str, checkpoint: str | None, fusion: float | None, samples: int, extra: list[str] = ()):
-    """The recipe (with ``model.head.fusion``, ``compose.samples`` and ``extra`` overrides set), its model,
-    checkpoint and features."""
-    from dance_core.compose import load_model
-    from dance_core.recipe import load_recipe
+    """The recipe (with ``model.head.fusion``, ``compose.samples`` and ``extra`` overrides set) with its model
+    loaded (a ``Composer``: recipe, model, checkpoint, features)."""
+    from dance_core.api import Composer, load_recipe
 
     sets = [*extra, f"compose.samples={samples}"] + ([f"model.head.fusion={fusion}"] if fusion is not None else [])
-    r = load_recipe(recipe, sets)
-    path = checkpoint or r.resolve_path(r.compose.checkpoint)
-    model, ckpt, stack = load_model(r, path, __import__("torch").device("cpu"))
-    return r, model, ckpt, stack
+    return Composer(load_recipe(recipe, sets), checkpoint, device="cpu")
 
 
 def song_streams(path: Path, stack, ckpt) -> tuple[dict[str, np.ndarray], int, object]:
     """The song's standardized streams without text (computed once per song), frame count and audio."""
-    from dance_core.data.features import load_audio
-    from dance_core.registry import get_registry
+    from dance_core import get_registry, load_audio
 
     audio = load_audio(str(path), get_registry())
     n = audio.n_frames(stack.fps)
@@ -82,8 +77,7 @@ def song_streams(path: Path, stack, ckpt) -> tuple[dict[str, np.ndarray], int, o
 
 def with_text(streams: dict[str, np.ndarray], stack, ckpt, n: int, text: str, start: float, end: float):
     """The streams with the text stream(s) recomputed for one span."""
-    from dance_core import FeatureInputs, TextSpan
-    from dance_core.registry import get_registry
+    from dance_core import FeatureInputs, TextSpan, get_registry
 
     reg = get_registry()
     spans = (TextSpan(text, start, end),)
@@ -96,28 +90,18 @@ def with_text(streams: dict[str, np.ndarray], stack, ckpt, n: int, text: str, st
     return out, spans
 
 
-def dances(model, recipe, ckpt, streams, n: int, name: str) -> list[np.ndarray]:
+def dances(composer, streams, n: int, name: str) -> list[np.ndarray]:
     """``compose.samples`` dances as joint positions ``(T, 24, 3)``, as ``dance compose`` writes them."""
-    import torch
+    from dance_core.api import Song
 
-    from dance_core.compose import Song, generate_song, grounded, seed_motion
-    from dance_core.registry import get_registry
-
-    reg = get_registry()
-    seed = torch.from_numpy(seed_motion("rest", ckpt, model.start_frames(), reg))
-    motion = generate_song(model, Song(name, streams, n), seed, recipe, torch.device("cpu"))
-    out = []
-    for k in range(motion.shape[0]):
-        data = ckpt.motion.decode(ckpt.stats.motion.invert(motion[k, :n]), recipe.fps, reg)
-        if recipe.compose.ground:
-            data = grounded(data, ckpt.motion, reg)
-        out.append(np.asarray(data.skeleton_motion.positions(), np.float64))
-    return out
+    song = Song(name, streams, n)
+    motion = composer.generate(song, composer.seed("rest"))
+    return [np.asarray(data.skeleton_motion.positions(), np.float64) for data in composer.dances(song, motion)]
 
 
 def shares(move: str, positions: np.ndarray, fps: float, start: float, end: float) -> dict[str, float]:
     """Share of seconds with the move before, inside and after ``[start, end)``."""
-    from dance_core.evaluation.move_detect import detect, move_share
+    from dance_core.evaluation import detect, move_share
 
     hit = detect(move, positions, fps)
     return {"before": move_share(hit, fps, 0.0, start), "inside": move_share(hit, fps, start, end),
@@ -129,9 +113,8 @@ def validate(n: int, first: int = 100) -> dict[str, dict[str, float]]:
     (classic dancer, 40 s dances ``first``..``first+n-1`` of seed 0, 30 fps). Recall: of the seconds the
     move covers at least half of, those where the detector fires; precision: of the seconds where it
     fires, those the move covers at least a tenth of (moves change within a second, blended)."""
-    from dance_core.evaluation.move_detect import DETECTORS, detect, second_hits
-    from dance_core.synth.dancer import PHRASINGS
-    from dance_core.synth.synthetic_dance import make_clip
+    from dance_core.evaluation import DETECTORS, detect, second_hits
+    from dance_core.synth import PHRASINGS, make_clip
 
     label_of = {t: m for m, ts in PHRASINGS.items() for t in ts}
     counts = {m: [0, 0, 0, 0] for m in DETECTORS}  # hits on the move, hits, seconds of the move, found
@@ -238,13 +221,14 @@ def main(argv: list[str] | None = None) -> int:
     empty = lambda: {"before": [], "inside": [], "after": []}  # noqa: E731
     results = {"music": {m: empty() for m in args.moves},
                "text": {m: {str(f): empty() for f in args.fusion} for m in args.moves}}
-    recipe, model, ckpt, stack = load(args.recipe, args.checkpoint, None, args.samples, args.sets)
+    music_only = load(args.recipe, args.checkpoint, None, args.samples, args.sets)
+    stack, ckpt = music_only.stack, music_only.checkpoint
     models = {f: load(args.recipe, args.checkpoint, f, args.samples, args.sets) for f in args.fusion}
     for song in songs:
         streams, n, _ = song_streams(song, stack, ckpt)
         seconds = n / stack.fps
         start, end = round(seconds / 3, 2), round(2 * seconds / 3, 2)
-        plain = dances(model, recipe, ckpt, streams, n, song.stem)
+        plain = dances(music_only, streams, n, song.stem)
         for m in args.moves:
             for pos in plain:
                 for k, v in shares(m, pos, stack.fps, start, end).items():
@@ -252,11 +236,9 @@ def main(argv: list[str] | None = None) -> int:
         for m in args.moves:
             text_streams, _ = with_text(streams, stack, ckpt, n, PROMPTS[m], start, end)
             for f in args.fusion:
-                r_f, model_f, _, _ = models[f]
-                if f == 0 and m != args.moves[0]:  # checked below on the first move: the music-only dance
-                    steered = plain
-                else:
-                    steered = dances(model_f, r_f, ckpt, text_streams, n, song.stem)
+                # fusion 0 is checked below on the first move: the music-only dance
+                reuse = f == 0 and m != args.moves[0]
+                steered = plain if reuse else dances(models[f], text_streams, n, song.stem)
                 if f == 0 and m == args.moves[0]:  # no text weight anywhere: the music-only dance itself
                     same = all(np.array_equal(a, b) for a, b in zip(plain, steered, strict=True))
                     results.setdefault("fusion0_equals_music", []).append(bool(same))

@@ -20,8 +20,7 @@ from pathlib import Path
 
 import torch
 
-from dance_core.distributed import run_local
-from dance_core.recipe import load_recipe
+from dance_core.api import load_recipe, run_local
 
 MODELS = {
     "core-synthetic (0.2 M)": [],
@@ -31,12 +30,11 @@ MODELS = {
 
 def train_rank(overrides: list[str], out: str) -> tuple[float, int]:
     """On one rank: (seconds of the training loop, steps)."""
-    from dance_core import distributed
-    from dance_core.train import Trainer
+    from dance_core.api import Trainer, barrier, rank_session
 
-    with distributed.session():
+    with rank_session():
         trainer = Trainer(load_recipe("core-synthetic", overrides), Path(out), quiet=True)
-        distributed.barrier()
+        barrier()
         start = time.perf_counter()
         result = trainer.run()
         return time.perf_counter() - start, result.steps

@@ -1,8 +1,9 @@
 """The stable-API table of docs/plugins.md, generated from ``__all__`` so that it cannot drift.
 
 Every name ``dance_core.__all__`` exports gets a row by what it is (an error, a protocol, ...) or by the
-module that defines it; the last row lists ``dance_core.testing.__all__`` and the pytest fixtures of
-``dance_core.pytest_plugin.__all__``. ``tests/test_public_api.py`` checks that the docs hold it.
+module that defines it; then a row lists ``dance_core.testing.__all__`` and the pytest fixtures of
+``dance_core.pytest_plugin.__all__``, and one row per module for scripts (``dance_core.api`` and the
+library modules of ``SCRIPT_MODULES``). ``tests/test_public_api.py`` checks that the docs hold it.
 
     python scripts/api_table.py           # print the table
     python scripts/api_table.py --write   # put it into docs/plugins.md, between its markers
@@ -35,6 +36,13 @@ MODULES = {
     "dance_core.checks": "command-line checks (`register_commands`)",
 }
 ORDER = ["writing a plugin", "protocols", *dict.fromkeys(MODULES.values())]
+#: modules for scripts (benchmarks import only these and ``dance_core``), each a row of its ``__all__``
+SCRIPT_MODULES = {
+    "dance_core.api": "scripts: the loops with typed options",
+    "dance_core.motion": "scripts: motion maths",
+    "dance_core.evaluation": "scripts: scoring",
+    "dance_core.synth": "scripts: synthetic songs and dancers",
+}
 
 
 def label(name: str, value: object) -> str:
@@ -48,21 +56,31 @@ def label(name: str, value: object) -> str:
     return MODULES[max(matches, key=len)] if matches else f"`{module or name}`"
 
 
-def rows() -> list[tuple[str, list[str]]]:
-    """(label, names) for every row, names in ``__all__`` order."""
+def plugin_rows() -> list[tuple[str, list[str]]]:
+    """(label, names) for the rows of ``dance_core.__all__``, names in ``__all__`` order."""
     import dance_core
-    import dance_core.pytest_plugin
-    import dance_core.testing
 
     groups: dict[str, list[str]] = {}
     for name in dance_core.__all__:
         groups.setdefault(label(name, getattr(dance_core, name)), []).append(name)
     ordered = [(g, groups.pop(g)) for g in ORDER if g in groups] + sorted(groups.items())
+    return [(g, [f"`{n}`" for n in names]) for g, names in ordered]
+
+
+def rows() -> list[tuple[str, list[str]]]:
+    """(label, names) for every row: ``dance_core``'s, the test kit's, then each module for scripts."""
+    import importlib
+
+    import dance_core.pytest_plugin
+    import dance_core.testing
+
     tests = [f"`{n}`" for n in dance_core.testing.__all__]
     fixtures = [f"`{n}`" for n in dance_core.pytest_plugin.__all__]
-    return [(g, [f"`{n}`" for n in names]) for g, names in ordered] + [
-        ("in tests", [f"`dance_core.testing`: {', '.join(tests)}; the pytest fixtures {', '.join(fixtures)}"])
-    ]
+    scripts = [(f"{text} (`{module}`)", [f"`{n}`" for n in importlib.import_module(module).__all__])
+               for module, text in SCRIPT_MODULES.items()]
+    return [*plugin_rows(),
+            ("in tests", [f"`dance_core.testing`: {', '.join(tests)}; the pytest fixtures {', '.join(fixtures)}"]),
+            *scripts]
 
 
 def table() -> str:

@@ -34,13 +34,16 @@ from dance_core.compose.composer import Composer
 from dance_core.data.features import FeatureStack
 from dance_core.data.files import read_motion_file
 from dance_core.data.motion_info import MotionInfo
-from dance_core.data.prepare import PreparedData, prepare_data
+from dance_core.data.prepare import PreparedData
+from dance_core.data.prepare import prepare_data as _prepare_data
 from dance_core.distributed import barrier, run_local
 from dance_core.distributed import session as rank_session
 from dance_core.evaluation.report import Report
 from dance_core.formats.wav import write_wav
 from dance_core.likelihood import held_out_nll
 from dance_core.model import ComposedModel, build_model
+from dance_core.motion.retarget import retarget
+from dance_core.data.sources import ClipSource
 from dance_core.protocols import JointClip, MotionData
 from dance_core.recipe import Recipe, load_recipe
 from dance_core.registry import get_registry
@@ -86,8 +89,9 @@ __all__ = [
     "Checkpoint",
     "MotionInfo",
     "load_checkpoint",
-    # files
+    # files and motion
     "read_motion",
+    "retarget",
     "write_wav",
     "render",
 ]
@@ -114,6 +118,13 @@ def run_dir(recipe: Recipe, options: TrainOptions | None = None) -> Path:
     """The run folder a training writes: ``options.out``, else ``training.output`` for this recipe."""
     out = (options or TrainOptions()).out
     return run_dir_for(recipe, str(out) if out else None)
+
+
+def prepare_data(recipe: Recipe, sources: Sequence[ClipSource] | None = None) -> PreparedData:
+    """The recipe's data prepared as training and held-out NLL prepare it: its dataset (or ``sources``,
+    clips as a dataset yields them) with motion encoded and features extracted. Prepared once, it can be
+    handed to several ``Trainer``s on the same data and features (``Trainer(recipe, out, data=...)``)."""
+    return _prepare_data(recipe, FeatureStack(recipe), get_registry(), sources)
 
 
 def stream_dims(recipe: Recipe) -> dict[str, int]:
