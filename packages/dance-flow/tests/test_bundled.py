@@ -85,3 +85,19 @@ def demo_wav(tmp_path):
     path = tmp_path / "demo.wav"
     write_wav(path, song.audio, 22050)
     return path
+
+
+def test_the_same_song_and_seed_give_the_same_files_byte_for_byte(tmp_path):
+    """Dance and preview: the HTML player is titled with the file's own name, not the temporary one it
+    is written under, so two runs write the same bytes."""
+    from dance_core.formats.wav import write_wav
+    from dance_core.synth.music import synthesize
+
+    song = tmp_path / "song.wav"
+    write_wav(song, synthesize(3.0, 120.0, 22050, np.random.default_rng(2)).audio, 22050)
+    recipe = load_recipe("default", ["compose.formats=[bvh, html]"])
+    for run in ("a", "b"):
+        compose(recipe, music=[str(song)], out_dir=str(tmp_path / run), quiet=True)
+    for name in ("song.bvh", "song.html"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+    assert "<title>song</title>" in (tmp_path / "a" / "song.html").read_text(encoding="utf-8")

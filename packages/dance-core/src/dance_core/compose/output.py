@@ -48,6 +48,7 @@ def write_song(
             if c.ground and data.skeleton_motion is not None:
                 data = grounded(data, ckpt.motion, registry)
             data.meta["audio_path"] = song.path
+            data.meta["title"] = stem  # previews show the file's own name, not its temporary one
             for entry, fmt in formats:
                 fmt.write(data, str(files.path(out / f"{stem}{format_suffix(entry)}")))
             if song.texts:  # the spans beside the dance, for dance evaluate (MPD at text starts)

@@ -50,13 +50,14 @@ class PreviewFormat:
         raise DataError(f"{path}: previews are write-only; read the BVH or NPZ written next to them")
 
     def write(self, motion: MotionData, path: str | Path) -> None:
-        """Render the skeletal motion behind ``motion`` with its song (``meta['audio_path']``)."""
+        """Render the skeletal motion behind ``motion`` with its song (``meta['audio_path']``), titled
+        ``meta['title']`` (else the file's name)."""
         if motion.skeleton_motion is None:
             raise DataError(f"{path}: a preview needs a skeletal motion (set a `motion:` representation in the recipe)")
         c = self.config
         music = motion.meta.get("audio_path") or None
         render(motion.skeleton_motion, path, music, getattr(c, "width", 480), getattr(c, "height", 480),
-               getattr(c, "fps", None), getattr(c, "trail", True))
+               getattr(c, "fps", None), getattr(c, "trail", True), title=motion.meta.get("title"))
 
 
 def build(config: Any = None, **_: Any) -> PreviewFormat:
