@@ -109,6 +109,19 @@ def compose(model: str, song: Path, out: Path, samples: int, seconds: float) -> 
     return [read_motion(p, "bvh").skeleton_motion.resample(FPS) for p in sorted(out.glob(f"{song.stem}*.bvh"))]
 
 
+def real_moves(song: Path, mocap: Path, out: Path, dances: int, seconds: float) -> list:
+    """Dances chained from the training pool's real moves to a song (``dance synth --music --mocap``, the
+    held-out takes left out), its first ``seconds``, read back."""
+    from dance_core.api import read_motion
+
+    cmd = [sys.executable, "-m", "dance_core.cli.main", "-q", "synth", "--out", str(out), "--music", str(song),
+           "--dances", str(dances), "--fps", str(FPS), "--mocap", str(mocap), "--mocap-exclude",
+           *[f"{n}.bvh" for n in HELD_OUT]]
+    subprocess.run(cmd, check=True, cwd=ROOT)
+    motions = [read_motion(p, "bvh").skeleton_motion for p in sorted(out.glob(f"{song.stem}*.bvh"))]
+    return [m.crop(0, int(seconds * FPS)) for m in motions]
+
+
 def row(name: str, windows: np.ndarray, reference: np.ndarray, scale: float, locking=None) -> dict:
     """One table row: distance, its ratio to the real scale, per-statistic medians, locking."""
     from dance_core.evaluation import STATISTICS, realism_distance
@@ -172,6 +185,14 @@ def main(argv: list[str] | None = None) -> None:
                                                                                     strict=True)]))
     rows.append(row("control: still figure", stats(still(seconds)), reference, scale))
     with tempfile.TemporaryDirectory() as tmp:
+        # the choreography the bundled default learns from: real moves on each song's beats (dance synth --mocap)
+        chained, locks = [], []
+        for song in songs:
+            for m in real_moves(song, args.mocap, Path(tmp) / "real-moves", args.samples, seconds):
+                chained.append(stats(m))
+                locks.append(locking_of(m, beats[song.stem][beats[song.stem] < m.duration]))
+        rows.append(row(f"real-moves choreography, training pool ({len(chained)} dances)", np.concatenate(chained),
+                        reference, scale, locks))
         for model in args.models:
             dances, locks = [], []
             for song in songs:
