@@ -76,7 +76,8 @@ def song_streams(path: Path, stack, ckpt) -> tuple[dict[str, np.ndarray], int, o
 
 
 def with_text(streams: dict[str, np.ndarray], stack, ckpt, n: int, text: str, start: float, end: float):
-    """The streams with the text stream(s) recomputed for one span."""
+    """The streams with the text stream(s) recomputed for one span, and the span's table (what the head
+    reads: the span in force per frame, the text streams' rows), standardized."""
     from dance_core import FeatureInputs, TextSpan, get_registry
 
     reg = get_registry()
@@ -87,14 +88,15 @@ def with_text(streams: dict[str, np.ndarray], stack, ckpt, n: int, text: str, st
         if any("text" in reg.get("feature", p).info.get("reads", ("audio",)) for p, _ in extractors):
             values = np.concatenate([np.asarray(x.extract(inputs, stack.fps), np.float32) for _, x in extractors], 1)
             out[name] = ckpt.stats.streams[name].apply(values)
-    return out, spans
+    return out, stack.span_table(n, spans).map_features(ckpt.stats.apply_rows)
 
 
-def dances(composer, streams, n: int, name: str) -> list[np.ndarray]:
-    """``compose.samples`` dances as joint positions ``(T, 24, 3)``, as ``dance compose`` writes them."""
+def dances(composer, streams, n: int, name: str, spans=None) -> list[np.ndarray]:
+    """``compose.samples`` dances as joint positions ``(T, 24, 3)``, as ``dance compose`` writes them
+    (``spans``: the song's span table, None for music only)."""
     from dance_core.api import Song
 
-    song = Song(name, streams, n)
+    song = Song(name, streams, n, spans=spans)
     motion = composer.generate(song, composer.seed("rest"))
     return [np.asarray(data.skeleton_motion.positions(), np.float64) for data in composer.dances(song, motion)]
 
@@ -234,11 +236,11 @@ def main(argv: list[str] | None = None) -> int:
                 for k, v in shares(m, pos, stack.fps, start, end).items():
                     results["music"][m][k].append(v)
         for m in args.moves:
-            text_streams, _ = with_text(streams, stack, ckpt, n, PROMPTS[m], start, end)
+            text_streams, spans = with_text(streams, stack, ckpt, n, PROMPTS[m], start, end)
             for f in args.fusion:
                 # fusion 0 is checked below on the first move: the music-only dance
                 reuse = f == 0 and m != args.moves[0]
-                steered = plain if reuse else dances(models[f], text_streams, n, song.stem)
+                steered = plain if reuse else dances(models[f], text_streams, n, song.stem, spans)
                 if f == 0 and m == args.moves[0]:  # no text weight anywhere: the music-only dance itself
                     same = all(np.array_equal(a, b) for a, b in zip(plain, steered, strict=True))
                     results.setdefault("fusion0_equals_music", []).append(bool(same))

@@ -28,6 +28,7 @@ MODULES = {
     "dance_core.motion": "what they pass",
     "dance_core.contexts": "build contexts",
     "dance_core.media": "media",
+    "dance_core.spans": "text spans as tables (a song's; a batch's, which heads read)",
     "dance_core.errors": "errors (one line each)",
     "dance_core.registry": "the registry",
     "dance_core.data.features": "helpers",

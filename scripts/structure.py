@@ -19,8 +19,8 @@ CORE = Path(__file__).resolve().parents[1] / "packages" / "dance-core" / "src"
 
 #: bottom first: (layer, the modules and folders of ``dance_core`` in it; "" is the package itself)
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("base", ("errors", "config", "version", "atomic", "checks", "media", "protocols", "contexts", "hookspecs",
-              "progress", "shards", "row_generators", "runtime")),
+    ("base", ("errors", "config", "version", "atomic", "checks", "media", "spans", "protocols", "contexts",
+              "hookspecs", "progress", "shards", "row_generators", "runtime")),
     ("plugins", ("kinds", "contracts", "plugins", "registry")),
     ("recipe", ("recipe",)),
     ("motion", ("motion",)),

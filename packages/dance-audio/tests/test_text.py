@@ -5,7 +5,8 @@ import importlib.util
 import numpy as np
 import pytest
 
-from dance_audio.text import GloveFeatures, SentenceFeatures, Vocabulary, WordTokens, span_index, tokenize
+from dance_audio.text import GloveFeatures, SentenceFeatures, Vocabulary, WordTokens, tokenize
+from dance_core import SpanFeatureExtractor, SpanTable, span_index
 from dance_core.errors import DataError, PluginError
 from dance_core.media import FeatureInputs, TextSpan
 
@@ -45,6 +46,21 @@ def test_word_tokens_per_frame(tmp_path):
     assert np.all(ext.extract(FeatureInputs(n_frames=4), 2.0) == 0)  # no text: all <pad>
 
 
+def test_word_tokens_give_one_row_per_span_and_adjacent_spans_stay_apart(tmp_path):
+    path = tmp_path / "vocab.txt"
+    Vocabulary.build([t.text for t in TEXTS]).save(path)
+    ext = WordTokens(str(path), 8)
+    assert isinstance(ext, SpanFeatureExtractor)
+    same = (TextSpan("A person does a spin.", 1.0, 2.0), TextSpan("A person does a spin.", 2.0, 3.0))
+    rows = ext.span_features(same)
+    assert rows.shape == (2, 8) and rows.dtype == np.float32 and np.array_equal(rows[0], rows[1])
+    table = SpanTable.at(same, 8, 2.0, {"text": rows})
+    assert table.index.tolist() == [-1, -1, 0, 0, 1, 1, -1, -1] and table.frames.tolist() == [[2, 4], [4, 6]]
+    per_frame = ext.extract(FeatureInputs(n_frames=8, texts=same), 2.0)
+    np.testing.assert_array_equal(per_frame, table.per_frame(rows))  # the stream windowed models read
+    assert np.array_equal(per_frame[3], per_frame[4])  # per frame the two spans look like one; the table keeps two
+
+
 def test_missing_vocabulary_is_a_clear_error(tmp_path):
     with pytest.raises(DataError, match=r"vocab\.txt: vocabulary file not found"):
         WordTokens(str(tmp_path / "vocab.txt"), 8)
@@ -71,6 +87,23 @@ def test_sentence_embeddings_without_the_extra_give_an_install_hint(monkeypatch)
     monkeypatch.setattr(text, "_sentence_model", [])
     with pytest.raises(PluginError, match=r"pip install 'dance-audio\[text\]'"):
         SentenceFeatures().extract(FeatureInputs(n_frames=3, texts=TEXTS), 1.0)
+
+
+def test_sentence_rows_embed_each_span_once_with_the_active_flag(monkeypatch):
+    import dance_audio.text as text
+
+    class Model:
+        def encode(self, sentences, **_):
+            return np.array([[len(s), 1.0] + [0.0] * 382 for s in sentences], np.float32)
+
+    monkeypatch.setattr(text, "_sentence_model", [Model()])
+    ext = SentenceFeatures()
+    rows = ext.span_features(TEXTS)
+    assert rows.shape == (2, 385) and rows[:, 0].tolist() == [len(t.text) for t in TEXTS]
+    assert rows[:, -1].tolist() == [1, 1]
+    feats = ext.extract(FeatureInputs(n_frames=4, texts=TEXTS), 1.0)  # t = 0..3: span 0, then 1 from 1.5 s
+    assert feats[:, 0].tolist() == [len(TEXTS[0].text)] * 2 + [len(TEXTS[1].text)] * 2
+    assert ext.span_features(()).shape == (0, 385)
 
 
 @pytest.mark.skipif(

@@ -3,7 +3,7 @@
 import torch
 from torch import nn
 
-from dance_core import ComponentConfig, hookimpl
+from dance_core import ComponentConfig, SpanTable, TextSpan, TextSpans, hookimpl
 from dance_core.protocols import Encoder, OutputHead, TrainContext, Window
 from dance_core.recipe import load_recipe
 from dance_core.testing import registered_plugin
@@ -47,10 +47,12 @@ class StatefulHead(nn.Module):
             err.append((self.out(h) - target[:, t]).abs().mean())
             prev = target[:, t]
         self.seen_streams = {n: tuple(x.shape) for n, x in ctx.streams.items()}
+        self.seen_spans = tuple(ctx.spans.index.shape)
         return {"loss": torch.stack(err).mean(), "q": torch.tensor(ctx.values.get("q", 0.0))}
 
     def init_state(self, batch, generator, song=None):
         self.song_shapes = (tuple(song.latent.shape), {n: tuple(x.shape) for n, x in song.streams.items()})
+        self.song_spans = song.spans
         return torch.randn(batch, 32, generator=generator) * 0.0
 
     def step(self, latent, history, state, temperature, generator):
@@ -103,7 +105,8 @@ def test_song_level_family_trains_and_generates_through_core(tmp_path):
         streams = {"music": torch.randn(2, 50, 4)}
         seed = torch.full((2, 1, 18), 0.5)
         model.encoder.calls = 0
-        out = model.generate(streams, 50, seed, generator=torch.Generator().manual_seed(0))
+        spans = TextSpans.stack([SpanTable.at((TextSpan("a person jumps", 2.0, None),), 60, 20.0)] * 2)
+        out = model.generate(streams, 50, seed, generator=torch.Generator().manual_seed(0), spans=spans)
     assert out.shape == (2, 50, 18)
     assert torch.equal(out[:, 0], seed[:, 0])
     assert model.encoder.calls == 1  # song-level: encoded once
@@ -111,6 +114,11 @@ def test_song_level_family_trains_and_generates_through_core(tmp_path):
     # a sequence head sees the streams aligned with its target, and the whole song before generating
     assert model.head.seen_streams == {"music": (8, 23, 32)}  # conditioned (mlp, dim 32)
     assert model.head.song_shapes[0][:2] == (2, 51) and model.head.song_shapes[1] == {"music": (2, 51, 32)}
+    # and the text spans over the same frames: the segment after its history, the song padded as its streams
+    assert model.head.seen_spans == (8, 23)
+    song = model.head.song_spans
+    assert song.index.shape == (2, 51) and song.index[:, 39:].tolist() == [[-1] + [0] * 11, [-1] + [1] * 11]
+    assert song.frames.tolist() == [[40, 51], [40, 51]]
 
 
 def test_windowed_multi_frame_head_keeps_k_frames():

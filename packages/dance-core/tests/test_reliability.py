@@ -121,14 +121,14 @@ def test_nan_feature_stream_names_the_music_file_and_stream(tiny_recipe):
     recipe = tiny_recipe()
     stack = FeatureStack(recipe)
     source = replace(dataset_sources(recipe)[0], audio_path="music/song.wav")
-    real = stack.extract
+    real = stack.extract_spans
 
     def poisoned(n, audio=None, texts=()):
-        streams = real(n, audio, texts)
+        streams, spans = real(n, audio, texts)
         streams["music"][3, 0] = np.inf
-        return streams
+        return streams, spans
 
-    stack.extract = poisoned
+    stack.extract_spans = poisoned
     with pytest.raises(DataError, match=r"^music/song\.wav: feature stream 'music' holds infinite values .*frame 3"):
         to_clip(source, stack, get_registry())
 

@@ -153,11 +153,11 @@ def test_a_stage_may_set_its_own_batch_size(tiny_recipe, tmp_path):
     )
     trainer = Trainer(recipe, tmp_path, quiet=True)
     sizes = []
-    real = trainer.sampler.batch
-    trainer.sampler.batch = lambda step, device, size=None: sizes.append(size) or real(step, device, size)
+    real = trainer.sampler.draw
+    trainer.sampler.draw = lambda step, device, size=None: sizes.append(size) or real(step, device, size)
     trainer.run()
     assert sizes == [24, 24, 24, 5, 5]
-    assert real(0, "cpu", 7)[0].shape[0] == 7 and real(0, "cpu")[0].shape[0] == recipe.training.batch_size
+    assert real(0, "cpu", 7).motion.shape[0] == 7 and real(0, "cpu").motion.shape[0] == recipe.training.batch_size
 
 
 def test_init_takes_a_checkpoints_weights_and_statistics(tiny_recipe, tmp_path):

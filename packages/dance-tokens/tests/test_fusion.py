@@ -1,10 +1,10 @@
-"""The late-fusion weight curve and the text spans it is laid over."""
+"""The late-fusion weight curve and the runs of text spans it is laid over."""
 
 import math
 
 import torch
 
-from dance_tokens.fusion import fusion_weights, text_spans
+from dance_tokens.fusion import fusion_weights, span_runs
 
 
 def test_weight_rises_along_a_half_cosine_holds_and_falls():
@@ -20,10 +20,10 @@ def test_weight_rises_along_a_half_cosine_holds_and_falls():
     assert 0 < float(w.min()) < 0.5
 
 
-def test_spans_are_runs_of_one_non_pad_row():
-    pad, jump, clap = [0, 0, 0], [1, 5, 2], [1, 7, 2]
-    rows = torch.tensor([pad, jump, jump, jump, pad, clap, clap, jump, jump, pad])
-    assert text_spans(rows) == [(1, 4), (5, 7), (7, 9)]
-    assert text_spans(torch.tensor([jump, jump])) == [(0, 2)]
-    assert text_spans(torch.tensor([pad, pad])) == []
-    assert text_spans(torch.zeros(0, 3, dtype=torch.long)) == []
+def test_runs_are_runs_of_one_span_and_adjacent_spans_stay_apart():
+    index = torch.tensor([-1, 0, 0, 0, -1, 1, 1, 2, 2, -1])
+    assert span_runs(index) == [(1, 4, 0), (5, 7, 1), (7, 9, 2)]
+    assert span_runs(torch.tensor([3, 3])) == [(0, 2, 3)]
+    assert span_runs(torch.tensor([-1, -1])) == []
+    assert span_runs(torch.zeros(0, dtype=torch.long)) == []
+    assert span_runs(torch.tensor([0, 1, 0])) == [(0, 1, 0), (1, 2, 1), (2, 3, 0)]  # interrupted: a new run

@@ -1,13 +1,26 @@
 """The tm2d head and tm2d-audio encoder: core's contract checks, both training stages and branches, and
-generation with late fusion (music-only before a text span, bit for bit; the text inside it)."""
+generation with late fusion (music-only before a text span, bit for bit; the text inside it; each span
+its own run, adjacent spans with one sentence included)."""
 
+import numpy as np
 import pytest
 import torch
 
-from dance_core import RecipeError, SongInputs, TrainContext, Window
+from dance_core import RecipeError, SongInputs, SpanTable, TextSpan, TextSpans, TrainContext, Window
 from dance_core.testing import check_encoder, check_head
 
 SONG = Window(0, None, 0)
+
+
+def spans_of(frames, *rows, width=5):
+    """A batch's text spans over ``frames`` frames: per batch row, ``(start, end, ids)`` spans in frames
+    (at 1 fps a span's seconds are its frames), the ids as the ``text`` stream's row of the span."""
+    tables = []
+    for row in rows:
+        texts = [TextSpan(" ".join(map(str, ids)), start, end) for start, end, ids in row]
+        ids = np.array([ids for _, _, ids in row], np.float32).reshape(len(row), width)
+        tables.append(SpanTable.at(texts, frames, 1.0, {"text": ids}))
+    return TextSpans.stack(tables)
 
 
 def test_head_and_encoder_pass_the_contract_checks(registry, tiny_head, tiny_encoder):
@@ -85,9 +98,9 @@ def test_build_refuses_a_windowed_encoder_and_a_missing_text_stream(registry, ti
     with pytest.raises(ValueError, match="no stream 'text'.*text_stream: null"):
         build(config, motion_dim=6, latent_dim=16, window=SONG, cond_dims={"music": 5})
     head = registry.create("head", "tm2d", tiny_head, _context())
-    streams = {"music": torch.zeros(2, 16, 5)}
-    ctx = TrainContext(0, 0, "prior", generator=torch.Generator().manual_seed(0), streams=streams)
-    with pytest.raises(RecipeError, match="model.head.text_stream: no feature stream 'text'"):
+    no_rows = TextSpans.stack([SpanTable.at((), 16, 1.0)] * 2)  # a text stream of extractors without span rows
+    ctx = TrainContext(0, 0, "prior", generator=torch.Generator().manual_seed(0), spans=no_rows)
+    with pytest.raises(RecipeError, match=r"model.head.text_stream: 'text' is not a text stream \(text streams: none"):
         head.loss(torch.randn(2, 16, 16), torch.randn(2, 16, 6), torch.zeros(2, 0, 6), ctx)
 
 
@@ -105,32 +118,40 @@ def test_tokenizer_stage_trains_the_vqvae_on_crops_and_reports_usage(registry, t
 
 def test_prior_stage_trains_both_branches_in_one_batch(registry, tiny_head):
     head = registry.create("head", "tm2d", tiny_head, _context())
-    text = torch.zeros(4, 32, 5)
-    text[2, 3:30] = torch.tensor([1.0, 7, 9, 2, 0])  # sample 2 holds a sentence (for most of its frames)
-    text[3, :] = torch.tensor([1.0, 8, 2, 0, 0])
+    # sample 2 holds a sentence for most of its frames, sample 3 for all of them
+    spans = spans_of(32, [], [], [(3, 30, [1, 7, 9, 2, 0])], [(0, 32, [1, 8, 2, 0, 0])])
     latent = torch.randn(4, 32, 16, requires_grad=True)
-    ctx = TrainContext(0, 0, "prior", generator=torch.Generator().manual_seed(0), streams={"text": text})
+    ctx = TrainContext(0, 0, "prior", generator=torch.Generator().manual_seed(0), spans=spans)
     out = head.loss(latent, torch.randn(4, 32, 6), torch.zeros(4, 0, 6), ctx)
     assert {"loss", "accuracy", "ce_music", "ce_text"} <= set(out)
     out["loss"].backward()
     assert latent.grad[:2].abs().sum() > 0 and latent.grad[2:].abs().sum() == 0  # music rows read the audio
     assert all(p.grad is None for p in head.tokenizer.parameters())  # the VQ-VAE is frozen here
     assert head.prior.text.embed.weight.grad[[7, 8, 9]].abs().sum() > 0
-    sentences, has = head.sentences({"text": text.long()}, 4, torch.device("cpu"))
+    sentences, has = head.sentences(spans, 4, torch.device("cpu"))
     assert has.tolist() == [False, False, True, True] and sentences[2].tolist() == [1, 7, 9, 2, 0]
-    text[0, 0, 1] = 40
+    ctx.spans = spans_of(32, [(0, 1, [0, 40, 0, 0, 0])], [], [], [])
     with pytest.raises(RecipeError, match=r"vocab_size \(40\) is too small for word id 40"):
         head.loss(latent, torch.randn(4, 32, 6), torch.zeros(4, 0, 6), ctx)
 
 
-def generate(head, latent, text, temperature=1.0, seed=3):
+def test_a_sample_takes_the_sentence_in_force_over_most_of_its_frames(registry, tiny_head):
+    head = registry.create("head", "tm2d", tiny_head, _context())
+    jump, clap = [1, 5, 2, 0, 0], [1, 6, 2, 0, 0]
+    # clap is the longest span (12 frames), but jump is in force over 20 frames in two spans
+    spans = spans_of(32, [(0, 10, jump), (10, 22, clap), (22, 32, jump)], [(0, 4, jump), (4, 32, clap)])
+    sentences, has = head.sentences(spans, 2, torch.device("cpu"))
+    assert has.tolist() == [True, True] and sentences.tolist() == [jump, clap]
+
+
+def generate(head, latent, spans, temperature=1.0, seed=3):
     """Drive the head as core's ComposedModel.generate does: init_state, a step per token, finish."""
-    n = latent.shape[1] - head.frames  # core pads the song's streams by the head's frames
+    n = latent.shape[1] - head.frames  # core pads the song's streams (and spans) by the head's frames
     batch = latent.shape[0]
     gen = torch.Generator().manual_seed(seed)
     out = torch.zeros(batch, n, 6)
     with torch.inference_mode():
-        state = head.init_state(batch, gen, song=SongInputs(latent, {"text": text}))
+        state = head.init_state(batch, gen, song=SongInputs(latent, {}, spans))
         t = 0
         while t < n:
             frames, state = head.step(latent[:, t : t + head.frames], out[:, :0], state, temperature, gen)
@@ -150,9 +171,8 @@ def test_before_a_text_span_the_dance_is_the_music_only_dance_bit_for_bit(song_h
     head = song_head
     frames = 8 * 30 + 5  # a last partial token
     latent = torch.randn(2, frames + 8, 16, generator=torch.Generator().manual_seed(5))
-    silent = torch.zeros(2, frames + 8, 5)
-    spoken = silent.clone()
-    spoken[0, 8 * 12 : 8 * 22] = torch.tensor([1.0, 7, 9, 2, 0])  # tokens 12-21 of the first dance only
+    silent = spans_of(frames + 8, [], [])
+    spoken = spans_of(frames + 8, [(8 * 12, 8 * 22, [1, 7, 9, 2, 0])], [])  # tokens 12-21 of the first dance only
     plain, plain_tokens = generate(head, latent, silent)
     fused, fused_tokens = generate(head, latent, spoken)
     assert plain.shape == fused.shape == (2, frames, 6) and plain_tokens.shape == (2, 31)
@@ -171,8 +191,7 @@ def test_before_a_text_span_the_dance_is_the_music_only_dance_bit_for_bit(song_h
 def test_text_branch_runs_only_where_the_text_weighs(song_head, monkeypatch):
     head = song_head
     latent = torch.randn(1, 8 * 20 + 8, 16)
-    text = torch.zeros(1, 8 * 20 + 8, 5)
-    text[0, 8 * 5 : 8 * 15] = torch.tensor([1.0, 7, 2, 0, 0])
+    text = spans_of(8 * 20 + 8, [(8 * 5, 8 * 15, [1, 7, 2, 0, 0])])
     calls = []
     original = head.prior.hidden_text
     def counted(seq, positions, *rest):
@@ -182,16 +201,31 @@ def test_text_branch_runs_only_where_the_text_weighs(song_head, monkeypatch):
     monkeypatch.setattr(head.prior, "hidden_text", counted)
     _, tokens = generate(head, latent, text, temperature=0.0)
     assert calls == list(range(5, 15))  # the span's ten tokens, every one of them weighted
-    state = head.init_state(1, None, song=SongInputs(latent, {"text": text}))
+    state = head.init_state(1, None, song=SongInputs(latent, {}, text))
     assert state.span_of[0].tolist() == [-1] * 5 + [0] * 10 + [-1] * 6
     assert state.weight[0, 5:15].max() == head.config.fusion and state.weight[0, 15:].abs().sum() == 0
-    music_only = head.init_state(1, None, song=SongInputs(latent, {}))  # no text stream: music only
+    music_only = head.init_state(1, None, song=SongInputs(latent, {}))  # no spans: music only
     assert music_only.weight is None
+
+
+def test_adjacent_spans_with_one_sentence_stay_two_spans_each_with_its_fusion(song_head):
+    head, jump = song_head, [1, 7, 2, 0, 0]
+    latent = torch.randn(1, 8 * 20 + 8, 16)
+    two = head.init_state(1, None, song=SongInputs(latent, {}, spans_of(8 * 20 + 8, [(40, 80, jump), (80, 120, jump)])))
+    one = head.init_state(1, None, song=SongInputs(latent, {}, spans_of(8 * 20 + 8, [(40, 120, jump)])))
+    assert two.span_of[0].tolist() == [-1] * 5 + [0] * 5 + [1] * 5 + [-1] * 6  # two runs, two text memories
+    assert one.span_of[0].tolist() == [-1] * 5 + [0] * 10 + [-1] * 6
+    from dance_tokens.fusion import fusion_weights
+
+    rise_and_fall = fusion_weights(5, head.config.fusion, head.config.ramp)
+    assert torch.equal(two.weight[0, 5:15], torch.cat([rise_and_fall, rise_and_fall]))  # falls and rises at the edge
+    assert two.weight[0, 9] < head.config.fusion and one.weight[0, 9] == head.config.fusion
+    assert torch.equal(two.text_memory[0], two.text_memory[1])  # the same sentence, encoded for each span
 
 
 def test_finish_decodes_all_tokens_jointly(song_head):
     latent = torch.randn(1, 8 * 6 + 8, 16)
-    motion, tokens = generate(song_head, latent, torch.zeros(1, 8 * 6 + 8, 5))
+    motion, tokens = generate(song_head, latent, spans_of(8 * 6 + 8, []))
     with torch.no_grad():
         torch.testing.assert_close(motion, song_head.tokenizer.decode(tokens)[:, : 8 * 6], rtol=0, atol=0)
 

@@ -108,8 +108,9 @@ def test_prior_stage_learns_tokens_of_both_corpora(trained):
     _, trainer, _, _, result, _ = trained
     model = trainer.model.eval()
     with torch.no_grad():
-        motion, streams = trainer.sampler.batch(0, "cpu", 64)
-        out = model.training_loss(motion, streams, trainer._context(result.steps, trainer.stages[1]))
+        batch = trainer.sampler.draw(0, "cpu", 64)
+        out = model.training_loss(batch.motion, batch.streams, trainer._context(result.steps, trainer.stages[1]),
+                                  spans=batch.spans)
     model.train()
     assert "ce_music" in out and "ce_text" in out  # both corpora in one batch
     assert float(out["ce_music"]) < 0.6 * np.log(64) and float(out["ce_text"]) < 0.6 * np.log(64)

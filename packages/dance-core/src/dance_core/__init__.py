@@ -21,8 +21,8 @@ _LAZY: dict[str, str] = {
     # protocols and the data they pass around
     **dict.fromkeys(
         ("Window", "TrainContext", "SongInputs", "Conditioner", "Encoder", "OutputHead", "FeatureExtractor",
-         "AudioReader", "MotionData", "MotionFormat", "MotionRepresentation", "Dataset", "Schedule", "JointClip",
-         "MetricResult", "Metric"),
+         "SpanFeatureExtractor", "AudioReader", "MotionData", "MotionFormat", "MotionRepresentation", "Dataset",
+         "Schedule", "JointClip", "MetricResult", "Metric"),
         "dance_core.protocols",
     ),
     # what a builder receives besides its config
@@ -30,6 +30,8 @@ _LAZY: dict[str, str] = {
                     "dance_core.contexts"),
     # media
     **dict.fromkeys(("Audio", "FeatureInputs", "TextSpan", "frame_count"), "dance_core.media"),
+    # text spans as tables: a song's (SpanTable) and a batch's (TextSpans, what heads read)
+    **dict.fromkeys(("SpanTable", "TextSpans", "span_index"), "dance_core.spans"),
     **dict.fromkeys(("ClipSource",), "dance_core.data.sources"),
     **dict.fromkeys(("Motion", "Skeleton"), "dance_core.motion"),
     # the registry
@@ -108,8 +110,10 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time the names load l
         OutputHead,
         Schedule,
         SongInputs,
+        SpanFeatureExtractor,
         TrainContext,
         Window,
     )
     from dance_core.registry import Entry, Registry, get_registry  # noqa: F401
     from dance_core.row_generators import RowGenerators, draw_rows  # noqa: F401
+    from dance_core.spans import SpanTable, TextSpans, span_index  # noqa: F401

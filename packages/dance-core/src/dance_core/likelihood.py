@@ -55,10 +55,10 @@ def held_out_nll(
     values = []
     with torch.no_grad():
         for i in range(batches):
-            motion, streams = sampler.batch(i)
+            batch = sampler.draw(i)
             generator = torch.Generator().manual_seed(i)
             ctx = TrainContext(step=0, epoch=0, stage="eval", values=dict(schedules), generator=generator)
-            out = model.training_loss(motion, streams, ctx)
+            out = model.training_loss(batch.motion, batch.streams, ctx, spans=batch.spans)
             if NLL_KEY not in out:
                 return None
             values.append(float(out[NLL_KEY]))

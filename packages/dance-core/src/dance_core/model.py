@@ -14,6 +14,7 @@ from dance_core.contexts import ConditionerContext, EncoderContext, HeadContext
 from dance_core.errors import RecipeError
 from dance_core.protocols import SongInputs, TrainContext
 from dance_core.recipe.schema import Recipe
+from dance_core.spans import TextSpans
 
 
 def build_model(recipe: Recipe, motion_dim: int, stream_dims: Mapping[str, int]) -> ComposedModel:
@@ -122,10 +123,12 @@ class ComposedModel(nn.Module):
         return self._lead() + w.motion_past + max(head.frames, w.cond_future)
 
     def training_loss(
-        self, motion: torch.Tensor, streams: Mapping[str, torch.Tensor], ctx: TrainContext, augment: Any = None
+        self, motion: torch.Tensor, streams: Mapping[str, torch.Tensor], ctx: TrainContext, augment: Any = None,
+        spans: TextSpans | None = None,
     ) -> dict[str, torch.Tensor]:
         """The head's losses on one batch of aligned segments; ``augment`` (a recipe's
-        ``training.augment``) corrupts the inputs, never the targets, with ``ctx.generator``."""
+        ``training.augment``) corrupts the inputs, never the targets, with ``ctx.generator`` (the
+        per-frame streams: ``spans``, the segments' text spans, are handed on as they are)."""
         w, head = self.window, self.head
         if augment is not None:
             drop = augment.input_dropout
@@ -135,7 +138,8 @@ class ComposedModel(nn.Module):
             h = head.history_frames
             latent = self.encoder(None, cond)
             if head.latent_tokens is None:  # a sequence head: the whole aligned segment at once
-                ctx = replace(ctx, streams={n: x[:, h:] for n, x in cond.items()})
+                ctx = replace(ctx, streams={n: x[:, h:] for n, x in cond.items()},
+                              spans=None if spans is None else spans.crop(h))
                 return head.loss(latent[:, h:], motion[:, h:], motion[:, :h], ctx)
             return head.loss(*_aligned_windows(latent, motion, h, head.frames), ctx)
         t = self._lead() + w.motion_past
@@ -164,8 +168,10 @@ class ComposedModel(nn.Module):
         keep: int | None = None,
         generator: torch.Generator | None = None,
         progress: Callable[[int], None] | None = None,
+        spans: TextSpans | None = None,
     ) -> torch.Tensor:
-        """Generate ``(B, n_frames, D)`` from streams ``(B, >=n_frames, C)`` and a seed ``(B, S, D)``."""
+        """Generate ``(B, n_frames, D)`` from streams ``(B, >=n_frames, C)`` and a seed ``(B, S, D)``;
+        ``spans``, the text spans over the streams' frames, reach a head behind a song-level encoder."""
         w, head = self.window, self.head
         batch = seed.shape[0]
         start = min(self.start_frames(), n_frames)
@@ -179,7 +185,8 @@ class ComposedModel(nn.Module):
         if w.song_level:
             cond = self.condition({n: _edge_pad(x, 0, head.frames) for n, x in streams.items()})
             latent_all = self.encoder(None, cond)
-            state = head.init_state(batch, generator, song=SongInputs(latent_all, cond))
+            song_spans = None if spans is None else spans.crop(0, n_frames).pad(head.frames)
+            state = head.init_state(batch, generator, song=SongInputs(latent_all, cond, song_spans))
         else:
             state = head.init_state(batch, generator)
             before, after = w.cond_past, w.cond_future + keep

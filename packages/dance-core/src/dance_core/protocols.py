@@ -11,7 +11,8 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from dance_core.media import Audio, FeatureInputs
+from dance_core.media import Audio, FeatureInputs, TextSpan
+from dance_core.spans import TextSpans
 
 if TYPE_CHECKING:  # torch is imported lazily everywhere else
     import torch
@@ -42,7 +43,10 @@ class TrainContext:
 
     ``streams``: for heads behind a song-level encoder, the conditioned feature streams aligned with
     the latent and target of this ``loss`` call (a head that reads an input the encoder does not
-    summarize, such as TM2D's text tokens); ``None`` behind windowed encoders.
+    summarize); ``None`` behind windowed encoders. ``spans``: likewise, the batch's text spans aligned
+    with them (a ``TextSpans`` table: each span, its frames, per frame the span in force and one row
+    of features per span, such as TM2D's sentences); ``None`` behind windowed encoders or when the
+    caller has none.
     """
 
     step: int
@@ -51,15 +55,18 @@ class TrainContext:
     values: dict[str, float] = field(default_factory=dict)
     generator: Any = None
     streams: dict[str, Any] | None = None
+    spans: TextSpans | None = None
 
 
 @dataclass
 class SongInputs:
     """What a head behind a song-level encoder sees before it generates: the whole song's latent
-    ``(B, T, d)`` and conditioned streams ``(B, T, C)``, frame-aligned, padded by the head's ``frames``."""
+    ``(B, T, d)``, conditioned streams ``(B, T, C)`` and text spans (a ``TextSpans`` over the same
+    ``T`` frames, or None), frame-aligned, padded by the head's ``frames``."""
 
     latent: Any
     streams: dict[str, Any]
+    spans: TextSpans | None = None
 
 
 @runtime_checkable
@@ -144,6 +151,18 @@ class FeatureExtractor(Protocol):
 
     def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
         """Features for ``inputs.n_frames`` frames; frame i describes time i / fps."""
+        ...
+
+
+@runtime_checkable
+class SpanFeatureExtractor(FeatureExtractor, Protocol):
+    """A text extractor that gives one row of features per text span; core lays the rows over the
+    frames for the per-frame stream (zeros where no span is in force) and keeps them as the stream's
+    rows of the song's span table (``SpanTable``, ``TextSpans``) when every extractor of the stream
+    gives them. Its ``extract`` gives the same per-frame values (``SpanTable.per_frame``)."""
+
+    def span_features(self, texts: tuple[TextSpan, ...]) -> np.ndarray:
+        """``(len(texts), dim())`` float32: one row per span, in order."""
         ...
 
 

@@ -6,7 +6,9 @@ first ``ramp`` of the span, holds ``peak``, and falls back over the last ``ramp`
 
     w(x) = peak · (1 - cos(π · min(x / ramp, (1 - x) / ramp, 1))) / 2
 
-Spans come from the word-token stream: runs of consecutive tokens holding the same non-pad id row.
+A span acts over the run of tokens whose middle frame it is in force at (core's span table gives the
+span in force per frame, ``TextSpans.index``): two adjacent spans are two runs, each with its own rise
+and fall, even when their sentences are the same; a span interrupted by a later one resumes as a new run.
 """
 
 from __future__ import annotations
@@ -23,19 +25,13 @@ def fusion_weights(n: int, peak: float = 0.8, ramp: float = 0.2) -> torch.Tensor
     return peak * 0.5 * (1.0 - torch.cos(math.pi * edge))
 
 
-def text_spans(rows: torch.Tensor) -> list[tuple[int, int]]:
-    """``[start, end)`` of every run of identical non-pad rows in ``rows (N, W)`` (pad: all zeros)."""
-    if len(rows) == 0:
-        return []
-    present = rows.ne(0).any(-1).tolist()
-    changed = [True] + rows[1:].ne(rows[:-1]).any(-1).tolist()
-    spans, start = [], None
-    for i in range(len(rows)):
-        if start is not None and (changed[i] or not present[i]):
-            spans.append((start, i))
-            start = None
-        if start is None and present[i]:
+def span_runs(index: torch.Tensor) -> list[tuple[int, int, int]]:
+    """``(start, end, span)`` of every run ``[start, end)`` of one span in ``index (N,)`` (-1: none)."""
+    values = index.tolist()
+    runs, start = [], 0
+    for i in range(1, len(values) + 1):
+        if i == len(values) or values[i] != values[start]:
+            if values[start] >= 0:
+                runs.append((start, i, values[start]))
             start = i
-    if start is not None:
-        spans.append((start, len(rows)))
-    return spans
+    return runs

@@ -4,11 +4,13 @@ A sequence head behind a song-level encoder (``tm2d-audio``): one step is one to
 
 - Training, stage ``tokenizer_stage``: the VQ-VAE on random ``crop``-frame crops of each segment.
   Any other stage: the frozen VQ-VAE tokenizes the segment, and the decoder is trained teacher-forced
-  with cross-entropy; a sample whose text stream holds a sentence takes the text branch
-  (cross-attention to that sentence), the others the music branch (cross-attention to the audio
-  memory, the encoder's latent at the token rate), both in one batch as the paper trains them.
-- Generation: ``init_state`` takes the song's audio memory, finds the text spans and encodes their
-  sentences, and lays the fusion weights over the tokens; each ``step`` samples one token from
+  with cross-entropy; a sample in which a text span is in force takes the text branch
+  (cross-attention to the sentence in force over most of its frames), the others the music branch
+  (cross-attention to the audio memory, the encoder's latent at the token rate), both in one batch as
+  the paper trains them.
+- Generation: ``init_state`` takes the song's audio memory, reads the span in force at each token
+  from the song's span table (``SongInputs.spans``), encodes each run's sentence (the text stream's
+  row of that span: its word ids), and lays the fusion weights over the tokens; each ``step`` samples one token from
   ``h = w · h_text + (1 - w) · h_audio`` (final hidden states, before the projection), running the
   text branch only where ``w > 0``; ``finish`` decodes all the tokens jointly.
 
@@ -25,8 +27,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from dance_core import RecipeError, SongInputs, TrainContext
-from dance_tokens.fusion import fusion_weights, text_spans
+from dance_core import RecipeError, SongInputs, TextSpans, TrainContext
+from dance_tokens.fusion import fusion_weights, span_runs
 from dance_tokens.prior import CrossModalPrior
 from dance_tokens.rate import to_tokens, token_middles
 from dance_tokens.sampling import sample_top_k
@@ -70,7 +72,7 @@ class TM2DHead(nn.Module):
         """The VQ-VAE loss in the tokenizer stage, the decoder's cross-entropy in any other."""
         if ctx.stage == self.config.tokenizer_stage:
             return self.tokenizer.loss(self.crops(target, ctx.generator), ctx.generator)
-        return self.prior_loss(latent, target, ctx.streams)
+        return self.prior_loss(latent, target, ctx.spans)
 
     def crops(self, target: torch.Tensor, generator: torch.Generator | None) -> torch.Tensor:
         """A random ``tokenizer.crop``-frame crop of each segment ``(B, T, D)``."""
@@ -84,7 +86,7 @@ class TM2DHead(nn.Module):
         return target[torch.arange(batch, device=target.device)[:, None], frames]
 
     def prior_loss(
-        self, latent: torch.Tensor, target: torch.Tensor, streams: dict[str, torch.Tensor] | None
+        self, latent: torch.Tensor, target: torch.Tensor, spans: TextSpans | None
     ) -> dict[str, torch.Tensor]:
         """Cross-entropy of the teacher-forced decoder on the frozen VQ-VAE's tokens of ``target``."""
         n = target.shape[1] // self.t
@@ -92,7 +94,7 @@ class TM2DHead(nn.Module):
             raise RecipeError(f"data.segment_frames ({target.shape[1]}) is shorter than a token ({self.t} frames)")
         with torch.no_grad():
             tokens = self.tokenizer.encode(target[:, : n * self.t])
-        sentences, has_text = self.sentences(streams, target.shape[0], target.device)
+        sentences, has_text = self.sentences(spans, target.shape[0], target.device)
         inputs = self.prior.inputs(tokens)
         positions = torch.arange(n, device=target.device)
         music = ~has_text
@@ -116,35 +118,42 @@ class TM2DHead(nn.Module):
             out["ce_text"] = ce[has_text].mean().detach()
         return out
 
-    def text_ids(self, streams: dict[str, torch.Tensor] | None, strict: bool = True) -> torch.Tensor | None:
-        """The text stream's word-token ids ``(B, T, W)``, or None (music only, or no streams given).
-        A missing text stream is a recipe error when ``strict`` (training), else music only."""
+    def text_table(self, spans: TextSpans | None, strict: bool = True) -> tuple[torch.Tensor, torch.Tensor] | None:
+        """The span in force per frame ``(B, T)`` and each span's word ids ``(S, W)`` from the text stream's
+        rows of ``spans``, or None (music only, or no spans given). A text stream without rows (not made of
+        text extractors) is a recipe error when ``strict`` (training), else music only."""
         name = self.config.text_stream
-        if name is None or streams is None or (name not in streams and not strict):
+        if name is None or spans is None or (name not in spans.features and not strict):
             return None
-        if name not in streams:
-            raise RecipeError(f"model.head.text_stream: no feature stream {name!r} "
-                              f"(streams: {', '.join(streams) or 'none'}); set it to null for music only")
-        ids = streams[name].round().long()
+        if name not in spans.features:
+            raise RecipeError(f"model.head.text_stream: {name!r} is not a text stream (text streams: "
+                              f"{', '.join(spans.features) or 'none'}): its extractors must all give rows per "
+                              "text span, such as word-tokens; set it to null for music only")
+        ids = spans.features[name].round().long()
         if ids.numel() and int(ids.max()) >= self.config.prior.vocab_size:
             raise RecipeError(f"model.head.prior.vocab_size ({self.config.prior.vocab_size}) is too small for "
                               f"word id {int(ids.max())}: set it to at least the vocabulary's length")
-        return ids
+        return spans.index, ids
 
     def sentences(
-        self, streams: dict[str, torch.Tensor] | None, batch: int, device: torch.device
+        self, spans: TextSpans | None, batch: int, device: torch.device
     ) -> tuple[torch.Tensor | None, torch.Tensor]:
-        """Per sample, the sentence (id row) covering most of its frames, and whether it has one."""
-        ids = self.text_ids(streams)
+        """Per sample, the sentence (id row) in force over most of its frames (its spans' frames added up
+        per sentence; the smallest id row of a tie), and whether a span is in force anywhere in it."""
+        table = self.text_table(spans)
         has = torch.zeros(batch, dtype=torch.bool, device=device)
-        if ids is None:
+        if table is None:
             return None, has
+        index, ids = table
         chosen = torch.zeros(batch, ids.shape[-1], dtype=torch.long, device=device)
         for b in range(batch):
-            rows = ids[b][ids[b].ne(0).any(-1)]
-            if len(rows):
-                unique, counts = torch.unique(rows, dim=0, return_counts=True)
-                chosen[b], has[b] = unique[counts.argmax()], True
+            present = index[b][index[b] >= 0]
+            if len(present):
+                which, frames = torch.unique(present, return_counts=True)
+                rows, sentence = torch.unique(ids[which], dim=0, return_inverse=True)
+                per_sentence = torch.zeros(len(rows), dtype=frames.dtype, device=frames.device)
+                per_sentence.index_add_(0, sentence, frames)
+                chosen[b], has[b] = rows[per_sentence.argmax()], True
         return chosen, has
 
     # -- generation
@@ -157,22 +166,25 @@ class TM2DHead(nn.Module):
             return TokenState(tokens, None, grows=True)
         audio = self.prior.audio(to_tokens(song.latent, self.t))
         state = TokenState(tokens, audio, grows=False)
-        ids = self.text_ids(song.streams, strict=False)
-        if ids is not None:
-            self._lay_texts(state, ids[:, token_middles(ids.shape[1], self.t, audio.shape[1]).to(ids.device)])
+        table = self.text_table(song.spans, strict=False)
+        if table is not None:
+            index, ids = table
+            self._lay_texts(state, index[:, token_middles(index.shape[1], self.t, audio.shape[1]).to(index.device)],
+                            ids)
         return state
 
-    def _lay_texts(self, state: TokenState, rows: torch.Tensor) -> None:
-        """Fill the state's spans from the text rows at the token rate ``(B, N, W)``."""
-        batch, n, _ = rows.shape
-        span_of = torch.full((batch, n), -1, dtype=torch.long, device=rows.device)
-        weight = torch.zeros(batch, n, dtype=torch.float64, device=rows.device)
+    def _lay_texts(self, state: TokenState, index: torch.Tensor, ids: torch.Tensor) -> None:
+        """Fill the state's spans from the span in force at each token ``(B, N)`` and the spans' ids ``(S, W)``:
+        one text memory per run of a span, its fusion weights over the run."""
+        batch, n = index.shape
+        span_of = torch.full((batch, n), -1, dtype=torch.long, device=index.device)
+        weight = torch.zeros(batch, n, dtype=torch.float64, device=index.device)
         sentences = []
         for b in range(batch):
-            for start, end in text_spans(rows[b]):
+            for start, end, span in span_runs(index[b]):
                 span_of[b, start:end] = len(sentences)
                 weight[b, start:end] = fusion_weights(end - start, self.config.fusion, self.config.ramp)
-                sentences.append(rows[b, start])
+                sentences.append(ids[span])
         if sentences:
             state.text_memory, state.text_mask = self.prior.text(torch.stack(sentences))
             state.span_of, state.weight = span_of, weight

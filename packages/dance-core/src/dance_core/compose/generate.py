@@ -11,6 +11,7 @@ from dance_core.model import ComposedModel
 from dance_core.recipe.schema import Recipe
 from dance_core.row_generators import RowGenerators, supports_row_generators
 from dance_core.runtime import generation_threads
+from dance_core.spans import TextSpans
 
 
 def batching_note(model: ComposedModel) -> str | None:
@@ -39,6 +40,7 @@ def generate_song(
         name: torch.from_numpy(np.ascontiguousarray(np.repeat(values[None], c.samples, axis=0))).to(device)
         for name, values in song.streams.items()
     }
+    spans = None if song.spans is None else TextSpans.stack([song.spans] * c.samples, device)
     generation_threads(model, c.samples, device, c.threads)
     generator = torch.Generator(device=device).manual_seed(recipe.seed)
     torch.manual_seed(recipe.seed)
@@ -50,6 +52,7 @@ def generate_song(
         keep=c.keep,
         generator=generator,
         progress=progress,
+        spans=spans,
     )
     motion = motion.float().cpu().numpy()
     if not np.all(np.isfinite(motion)):
@@ -82,6 +85,9 @@ def generate_songs(
                 values = np.concatenate([values, np.repeat(values[-1:], longest - len(values), axis=0)])
             rows.append(np.repeat(values[None], c.samples, axis=0))
         streams[name] = torch.from_numpy(np.ascontiguousarray(np.concatenate(rows))).to(device)
+    spans = None
+    if all(song.spans is not None for song in songs):  # each song's spans run on over its padding, as its music
+        spans = TextSpans.stack([song.spans.extend(longest) for song in songs for _ in range(c.samples)], device)
     batch = len(songs) * c.samples
     generation_threads(model, batch, device, c.threads)
     generator = RowGenerators.same_seed(recipe.seed, len(songs), c.samples, device)
@@ -94,6 +100,7 @@ def generate_songs(
         keep=c.keep,
         generator=generator,
         progress=progress,
+        spans=spans,
     )
     motion = motion.float().cpu().numpy()
     out = []

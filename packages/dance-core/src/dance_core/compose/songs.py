@@ -17,17 +17,20 @@ from dance_core.media import TextSpan, frame_count
 from dance_core.model import ComposedModel, build_model
 from dance_core.recipe.schema import Recipe, TextSpec
 from dance_core.registry import Registry
+from dance_core.spans import SpanTable
 
 
 @dataclass
 class Song:
-    """One song's name, features and frame count."""
+    """One song's name, features and frame count, its text spans (as given, and as a table over its
+    frames with the text streams' rows, standardized)."""
 
     name: str
     streams: dict[str, np.ndarray]
     n_frames: int
     path: str = ""
     texts: tuple[TextSpan, ...] = ()
+    spans: SpanTable | None = None
 
 
 def seed_motion(
@@ -66,11 +69,11 @@ def load_song(
     path: str, stack: FeatureStack, ckpt: Checkpoint, seconds: float | None, registry: Registry,
     texts: list[TextSpec] = (),
 ) -> Song:
-    """Features of one song (and its text spans), standardized with the checkpoint's statistics."""
+    """Features of one song (and its text spans' table), standardized with the checkpoint's statistics."""
     audio = load_audio(path, registry, stack.formats)
     n_audio = audio.n_frames(stack.fps)
     spans = song_texts(list(texts), n_audio / stack.fps, path)
-    raw = stack.extract(n_audio, audio, spans)
+    raw, table = stack.extract_spans(n_audio, audio, spans)
     n = frame_count(seconds, stack.fps) if seconds else n_audio
     streams = {}
     for name, values in raw.items():
@@ -80,7 +83,9 @@ def load_song(
         if n > len(values):
             values = np.concatenate([values, np.repeat(values[-1:], n - len(values), axis=0)])
         streams[name] = values[:n]
-    return Song(Path(path).stem, streams, n, str(path), spans)
+    table = table.map_features(ckpt.stats.apply_rows)
+    table = table.extend(n) if n > n_audio else table.crop(0, n)
+    return Song(Path(path).stem, streams, n, str(path), spans, table)
 
 
 def load_model(

@@ -1,4 +1,5 @@
-"""Audio loading through registered readers, and the recipe's stacks of feature extractors."""
+"""Audio loading through registered readers, and the recipe's stacks of feature extractors (per-frame
+streams, and the span table of the text streams)."""
 
 from __future__ import annotations
 
@@ -9,8 +10,10 @@ import numpy as np
 from dance_core.contexts import DEFAULT_FORMATS, FormatOptions
 from dance_core.errors import DataError
 from dance_core.media import Audio, FeatureInputs, TextSpan
+from dance_core.protocols import SpanFeatureExtractor
 from dance_core.recipe.schema import Recipe
 from dance_core.registry import Registry
+from dance_core.spans import SpanTable
 
 MIN_SECONDS = 0.5
 
@@ -82,23 +85,67 @@ class FeatureStack:
         """Width of every stream."""
         return {name: sum(x.dim() for _, x in exts) for name, exts in self.streams.items()}
 
+    def text_streams(self) -> list[str]:
+        """Streams of text alone: every extractor gives one row per span (``SpanFeatureExtractor``), so
+        the stream has rows in the span table."""
+        return [name for name, exts in self.streams.items()
+                if exts and all(isinstance(x, SpanFeatureExtractor) for _, x in exts)]
+
     def extract(
         self, n_frames: int, audio: Audio | None = None, texts: tuple[TextSpan, ...] = ()
     ) -> dict[str, np.ndarray]:
         """Every stream, ``(n_frames, dim)`` float32; non-finite output is an error naming the extractor."""
-        inputs = FeatureInputs(n_frames=n_frames, audio=audio, texts=tuple(texts))
-        out = {}
+        return self.extract_spans(n_frames, audio, texts)[0]
+
+    def extract_spans(
+        self, n_frames: int, audio: Audio | None = None, texts: tuple[TextSpan, ...] = ()
+    ) -> tuple[dict[str, np.ndarray], SpanTable]:
+        """Every stream (as :meth:`extract`) and the texts' span table over the frames, with the rows of
+        the text streams; a span extractor's rows are computed once and laid over the frames."""
+        table = SpanTable.at(texts, n_frames, self.fps)
+        inputs = FeatureInputs(n_frames=n_frames, audio=audio, texts=table.spans)
+        text = set(self.text_streams())
+        out, rows = {}, {}
         for name, extractors in self.streams.items():
-            parts = []
+            parts, span_parts = [], []
             for plugin, extractor in extractors:
-                values = np.asarray(extractor.extract(inputs, self.fps), dtype=np.float32)
+                if isinstance(extractor, SpanFeatureExtractor):
+                    span_parts.append(self._rows(plugin, extractor, table.spans, audio))
+                    values = table.per_frame(span_parts[-1])
+                else:
+                    values = np.asarray(extractor.extract(inputs, self.fps), dtype=np.float32)
                 if values.shape != (n_frames, extractor.dim()):
                     raise DataError(
                         f"feature {plugin!r} returned {values.shape}, expected {(n_frames, extractor.dim())}"
                     )
                 if not np.all(np.isfinite(values)):
-                    where = audio.path if audio is not None and audio.path else "input"
-                    raise DataError(f"{where}: feature {plugin!r} produced NaN or inf")
+                    raise DataError(f"{_where(audio)}: feature {plugin!r} produced NaN or inf")
                 parts.append(values)
             out[name] = np.concatenate(parts, axis=1) if parts else np.zeros((n_frames, 0), np.float32)
-        return out
+            if name in text:
+                rows[name] = np.concatenate(span_parts, axis=1)
+        return out, table.with_features(rows)
+
+    def span_table(self, n_frames: int, texts: tuple[TextSpan, ...] = (), audio: Audio | None = None) -> SpanTable:
+        """The texts' span table with the rows of the text streams alone (streams read from a cache)."""
+        table = SpanTable.at(texts, n_frames, self.fps)
+        return table.with_features({
+            name: np.concatenate([self._rows(p, x, table.spans, audio) for p, x in self.streams[name]], axis=1)
+            for name in self.text_streams()
+        })
+
+    @staticmethod
+    def _rows(plugin: str, extractor: SpanFeatureExtractor, spans: tuple[TextSpan, ...],
+              audio: Audio | None) -> np.ndarray:
+        """An extractor's rows, one per span, checked: ``(S, dim)`` finite float32."""
+        rows = np.asarray(extractor.span_features(spans), dtype=np.float32)
+        if rows.shape != (len(spans), extractor.dim()):
+            raise DataError(f"feature {plugin!r} returned {rows.shape} span rows, expected "
+                            f"{(len(spans), extractor.dim())}")
+        if not np.all(np.isfinite(rows)):
+            raise DataError(f"{_where(audio)}: feature {plugin!r} produced NaN or inf for a text span")
+        return rows
+
+
+def _where(audio: Audio | None) -> str:
+    return str(audio.path) if audio is not None and audio.path else "input"

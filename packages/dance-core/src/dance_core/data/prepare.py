@@ -153,9 +153,10 @@ def check_streams(source: ClipSource, streams: dict[str, np.ndarray]) -> None:
 
 
 def to_clip(source: ClipSource, stack: FeatureStack, registry: Registry) -> Clip:
-    """Features for one source, cropped with its motion to a common frame count; motion at another
-    frame rate is low-pass filtered and resampled to the recipe's. NaN or infinite motion or
-    features stop here, with one line naming the file and the stream."""
+    """Features for one source, cropped with its motion to a common frame count, and its texts' span
+    table over those frames (the text streams' rows computed anew when the streams come from the
+    feature cache); motion at another frame rate is low-pass filtered and resampled to the recipe's.
+    NaN or infinite motion or features stop here, with one line naming the file and the stream."""
     motion = source.motion
     values = motion.values
     check_finite(values, motion_file(source), "motion")
@@ -170,16 +171,17 @@ def to_clip(source: ClipSource, stack: FeatureStack, registry: Registry) -> Clip
         if streams:
             check_durations(source, len(values), len(next(iter(streams.values()))), stack.fps)
         n = min(len(values), *(len(v) for v in streams.values())) if streams else len(values)
-        return Clip(source.name, values[:n], {k: v[:n] for k, v in streams.items()}, source.meta.get("song", ""))
+        spans = stack.span_table(n, source.texts)
+        return Clip(source.name, values[:n], {k: v[:n] for k, v in streams.items()}, source.meta.get("song", ""), spans)
     audio = source.audio
     if audio is None and source.audio_path is not None:
         audio = load_audio(source.audio_path, registry, stack.formats)
     if audio is not None:
         check_durations(source, len(values), audio.n_frames(stack.fps), stack.fps)
     n = len(values) if audio is None else min(len(values), audio.n_frames(stack.fps))
-    streams = stack.extract(n, audio, source.texts)
+    streams, spans = stack.extract_spans(n, audio, source.texts)
     check_streams(source, streams)
-    return Clip(source.name, values[:n], streams, source.meta.get("song", ""))
+    return Clip(source.name, values[:n], streams, source.meta.get("song", ""), spans)
 
 
 def check_durations(source: ClipSource, motion_frames: int, audio_frames: int, fps: float) -> None:

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 import torch
 
 from dance_core.data.sources import Clip
 from dance_core.errors import DataError
+from dance_core.spans import SpanTable, TextSpans
 
 
 def split_clips(clips: list[Clip], val_fraction: float, seed: int) -> tuple[list[Clip], list[Clip]]:
@@ -17,6 +21,16 @@ def split_clips(clips: list[Clip], val_fraction: float, seed: int) -> tuple[list
     n_val = min(max(n_val, 1), len(songs) - 1) if val_fraction > 0 and len(songs) > 1 else 0
     held = {songs[i] for i in order[:n_val]}
     return [c for c in clips if c.song not in held], [c for c in clips if c.song in held]
+
+
+@dataclass
+class Batch:
+    """Aligned segments: motion ``(B, L, D)``, streams ``{name: (B, L, C)}`` and their text spans (a
+    ``TextSpans`` over the ``L`` frames; None when no clip carries a span table)."""
+
+    motion: torch.Tensor
+    streams: dict[str, torch.Tensor]
+    spans: TextSpans | None = None
 
 
 class SegmentSampler:
@@ -43,8 +57,16 @@ class SegmentSampler:
 
     def batch(
         self, index: int, device: torch.device | str = "cpu", size: int | None = None, part: tuple[int, int] = (0, 1)
-    ):
-        """Batch ``index``: motion ``(B, L, D)`` and streams ``{name: (B, L, C)}`` (``size``: B, else the default).
+    ) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+        """Batch ``index``'s motion ``(B, L, D)`` and streams ``{name: (B, L, C)}`` (:meth:`draw`, without
+        the text spans)."""
+        drawn = self.draw(index, device, size, part)
+        return drawn.motion, drawn.streams
+
+    def draw(
+        self, index: int, device: torch.device | str = "cpu", size: int | None = None, part: tuple[int, int] = (0, 1)
+    ) -> Batch:
+        """Batch ``index``: motion, streams and text spans of ``size`` segments (B, else the default).
 
         ``part=(k, n)``: the batch of ``B × n`` segments is drawn, and its ``k``-th run of ``B`` rows
         returned (one rank's share of a distributed batch: the ``n`` parts together are exactly the
@@ -61,4 +83,13 @@ class SegmentSampler:
         pairs = list(zip(picks, sl, strict=True))
         streams = {n: torch.from_numpy(np.stack([self.clips[p].streams[n][s] for p, s in pairs])).to(device)
                    for n in names}
-        return torch.from_numpy(motion).to(device), streams
+        return Batch(torch.from_numpy(motion).to(device), streams, self._spans(pairs, device))
+
+    def _spans(self, pairs: list[tuple[Any, slice]], device: torch.device | str) -> TextSpans | None:
+        """The segments' span tables as one batch table (a clip without one has no spans)."""
+        if all(self.clips[p].spans is None for p, _ in pairs):
+            return None
+        empty = SpanTable.at((), self.length, 1.0)
+        tables = [empty if self.clips[p].spans is None else self.clips[p].spans.crop(s.start, s.stop)
+                  for p, s in pairs]
+        return TextSpans.stack(tables, device)

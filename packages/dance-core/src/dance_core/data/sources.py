@@ -8,6 +8,7 @@ import numpy as np
 
 from dance_core.media import Audio, TextSpan
 from dance_core.protocols import MotionData
+from dance_core.spans import SpanTable
 
 
 @dataclass
@@ -24,12 +25,14 @@ class ClipSource:
 
 @dataclass
 class Clip:
-    """Motion and feature streams cropped to one common frame count at the recipe's fps."""
+    """Motion and feature streams cropped to one common frame count at the recipe's fps, and the
+    clip's text spans over those frames (a ``SpanTable``; None for clips made without one)."""
 
     name: str
     motion: np.ndarray
     streams: dict[str, np.ndarray]
     song: str = ""  # clips of one song (e.g. a mirrored copy) stay on one side of the split
+    spans: SpanTable | None = None
 
     def __post_init__(self) -> None:
         self.song = self.song or self.name

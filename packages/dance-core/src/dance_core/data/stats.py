@@ -55,13 +55,18 @@ class NormStats:
         return cls(Standardizer.fit([c.motion for c in clips]), streams)
 
     def apply(self, clip: Clip) -> Clip:
-        """A standardized copy of a clip."""
+        """A standardized copy of a clip (its span table's rows standardized as their streams)."""
         return Clip(
             clip.name,
             self.motion.apply(clip.motion),
             {n: self.streams[n].apply(v) for n, v in clip.streams.items()},
             clip.song,
+            None if clip.spans is None else clip.spans.map_features(self.apply_rows),
         )
+
+    def apply_rows(self, stream: str, rows: np.ndarray) -> np.ndarray:
+        """Rows of a stream's features (a span table's) standardized as the stream."""
+        return self.streams[stream].apply(rows) if stream in self.streams else rows
 
     def to_arrays(self) -> dict[str, np.ndarray]:
         """Flat ``norm.<part>.<mean|std>`` arrays for a safetensors file."""

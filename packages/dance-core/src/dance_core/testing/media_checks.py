@@ -11,7 +11,8 @@ import numpy as np
 
 from dance_core import registry
 from dance_core.media import Audio, FeatureInputs, TextSpan
-from dance_core.protocols import JointClip, MetricResult
+from dance_core.protocols import JointClip, MetricResult, SpanFeatureExtractor
+from dance_core.spans import SpanTable
 from dance_core.testing.kit import create
 
 
@@ -46,7 +47,9 @@ def check_feature(
     """Build feature extractor ``name`` and check ``extract`` on a short song (default
     :func:`synthetic_audio`) with timed text (as in training) and without (as when composing), for the
     song's frame count at ``fps`` and for fewer frames (training crops music to the motion): each call
-    gives ``(n_frames, dim())`` finite float32 values. Returns the extractor."""
+    gives ``(n_frames, dim())`` finite float32 values. A text extractor that gives one row per span
+    (``span_features``, a ``SpanFeatureExtractor``) must give ``(len(texts), dim())`` finite float32
+    rows, which laid over the frames are its ``extract`` values. Returns the extractor."""
     extractor, check = create("feature", name, options, None, registry)
     with check.calling("dim()"):
         dim = extractor.dim()
@@ -62,7 +65,23 @@ def check_feature(
         check.that(values.shape == (n_frames, dim), f"{what} returned shape {values.shape}, expected {(n_frames, dim)}")
         check.that(values.dtype == np.float32, f"{what} returned {values.dtype}, expected float32")
         check.that(bool(np.isfinite(values).all()), f"{what} returned NaN or inf values")
+        if isinstance(extractor, SpanFeatureExtractor):
+            _check_span_rows(extractor, check, spans, n_frames, fps, values, dim)
     return extractor
+
+
+def _check_span_rows(extractor: Any, check: Any, spans: tuple[TextSpan, ...], n_frames: int, fps: float,
+                     values: np.ndarray, dim: int) -> None:
+    """A span extractor's rows: one per span, finite float32, laid over the frames as ``extract`` gives them."""
+    what = f"span_features of {len(spans)} spans"
+    with check.calling(what):
+        rows = extractor.span_features(spans)
+    check.that(isinstance(rows, np.ndarray), f"{what} returned a {type(rows).__name__}, not a numpy array")
+    check.that(rows.shape == (len(spans), dim), f"{what} returned shape {rows.shape}, expected {(len(spans), dim)}")
+    check.that(rows.dtype == np.float32, f"{what} returned {rows.dtype}, expected float32")
+    check.that(bool(np.isfinite(rows).all()), f"{what} returned NaN or inf values")
+    laid = SpanTable.at(spans, n_frames, fps).per_frame(rows)
+    check.that(np.array_equal(laid, values), f"{what}, laid over the frames, differ from extract's values")
 
 
 def dancing_clips(n: int = 3, seconds: float = 4.0, fps: float = 30.0, seed: int = 0) -> list[JointClip]:

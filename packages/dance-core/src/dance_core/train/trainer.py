@@ -61,8 +61,8 @@ class _LossModule(torch.nn.Module):
             #: and does not warn that looking was unnecessary
             self.idle = torch.nn.Parameter(torch.zeros(1))
 
-    def forward(self, motion, streams, ctx, augment):  # noqa: D102 - ComposedModel.training_loss
-        return self.model.training_loss(motion, streams, ctx, augment)
+    def forward(self, motion, streams, ctx, augment, spans=None):  # noqa: D102 - ComposedModel.training_loss
+        return self.model.training_loss(motion, streams, ctx, augment, spans)
 
 
 def _seed_for(seed: int, step: int, rank: int) -> int:
@@ -204,11 +204,13 @@ class Trainer:
         with torch.no_grad():
             for i in range(self.t.val_batches):
                 if self.world > 1:  # each rank its slice of the batch one process would draw
-                    motion, streams = self.val_sampler.batch(i, self.device, self.t.batch_size, self._part())
+                    batch = self.val_sampler.draw(i, self.device, self.t.batch_size, self._part())
                 else:
-                    motion, streams = self.val_sampler.batch(i, self.device)
+                    batch = self.val_sampler.draw(i, self.device)
                 with _autocast(self.device, self.precision):
-                    losses.append(float(self.model.training_loss(motion, streams, self._context(step, stage))["loss"]))
+                    out = self.model.training_loss(batch.motion, batch.streams, self._context(step, stage),
+                                                   spans=batch.spans)
+                    losses.append(float(out["loss"]))
         self.model.train()
         mean = float(np.mean(losses))
         if self.world > 1:
@@ -318,14 +320,14 @@ class Trainer:
 
     def _step(self, step: int, optimizer: torch.optim.Optimizer, ctx: TrainContext, size: int | None = None) -> float:
         if self.world > 1:
-            motion, streams = self.sampler.batch(step, self.device, size or self.t.batch_size, self._part())
+            batch = self.sampler.draw(step, self.device, size or self.t.batch_size, self._part())
             # dropout on ranks > 0 draws from (seed, step, rank): resumable whatever the number of ranks
             torch.manual_seed(_seed_for(self.recipe.seed + 1, step, self.ranks.rank))
         else:
-            motion, streams = self.sampler.batch(step, self.device, size)
+            batch = self.sampler.draw(step, self.device, size)
         forward = self._loss_module or _LossModule(self.model)
         with _autocast(self.device, self.precision):
-            losses = forward(motion, streams, ctx, self.t.augment)
+            losses = forward(batch.motion, batch.streams, ctx, self.t.augment, batch.spans)
         loss = losses["loss"]
         #: the head's other scalar values (e.g. TM2D's codebook usage, per-branch cross-entropy), logged (rank 0's)
         self.extras = {k: float(v.detach()) for k, v in losses.items()
