@@ -125,7 +125,8 @@ def claims_table(table: dict, tf: dict | None, cur: dict | None, protocol: Proto
     if cur and cur.get("teacher forcing"):
         lines.append(row("DanceRevolution, pure teacher forcing", cur["teacher forcing"]))
     if table.get("tm2d"):
-        lines.append(row("TM2D (tm2d-small, bundled weights with the prior retrained on 30 Nov 2026, music only)", table["tm2d"],
+        tm2d_name = "TM2D (tm2d-small, bundled weights with the prior retrained on 30 Nov 2026, music only)"
+        lines.append(row(tm2d_name, table["tm2d"],
                          note="not the common protocol: its own training set (classic dancer + synthetic-moves), "
                               "30 fps resampled to 20, its features; one training run, 5 samples"))
     return lines

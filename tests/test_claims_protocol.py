@@ -94,7 +94,8 @@ def test_verdict_line_is_read_from_its_source_not_from_the_claims_quote(claims, 
     from readme_section import verdict_line
 
     readme = tmp_path / "README.md"
-    readme.write_text("<!-- claims:start -->\n- **TM2D** (text) old verdict\n  old continuation\n<!-- claims:end -->\n\n"
+    readme.write_text("<!-- claims:start -->\n- **TM2D** (text) old verdict\n  old continuation\n"
+                      "<!-- claims:end -->\n\n"
                       "text\n\n- **TM2D** (text) new verdict\n  new continuation\nafter\n", encoding="utf-8")
     assert verdict_line("- **TM2D** (text", readme) == "- **TM2D** (text) new verdict\n  new continuation"
     assert verdict_line("- **Other**", readme) is None

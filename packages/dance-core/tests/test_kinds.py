@@ -52,7 +52,8 @@ class InfoPlugin:
 @pytest.mark.parametrize(
     ("kind", "info", "message"),
     [
-        ("motion-format", {"sufixes": (".odd",)}, r"sufixes: unknown motion-format keyword \(known: suffixes, priority,"),
+        ("motion-format", {"sufixes": (".odd",)},
+         r"sufixes: unknown motion-format keyword \(known: suffixes, priority,"),
         ("motion-format", {"priority": "high"}, r"priority: Input should be a valid integer"),
         ("motion-format", {"write_only": "yes"}, r"write_only: Input should be a valid boolean"),
         ("motion-format", {"suffixes": ("odd",)}, r"suffixes: a suffix starts with a dot"),

@@ -73,7 +73,8 @@ def test_checkpoint_stores_the_representation_and_skeleton(run):
 
     recipe, result = run
     info = load_checkpoint(result.checkpoint).motion
-    assert info.representation == "rotations" and info.options == {"rotation": "expmap", "root": "deltas", "joints": None}
+    assert info.representation == "rotations"
+    assert info.options == {"rotation": "expmap", "root": "deltas", "joints": None}
     assert info.skeleton.name == "dance24" and info.dim == 4 + 24 * 3
     assert info.channels[:2] == ("root.dx", "root.dz")
     stored = info.to_dict()

@@ -186,7 +186,8 @@ def test_init_takes_a_checkpoints_weights_and_statistics(tiny_recipe, tmp_path):
 def test_init_errors_name_the_checkpoint_and_the_field(tiny_recipe, tmp_path):
     first = train(tiny_recipe(), out=str(tmp_path / "a"), quiet=True).checkpoint
     with pytest.raises(CheckpointError, match="not found|no such|does not exist"):
-        Trainer(tiny_recipe(f"training.init={{checkpoint: {tmp_path / 'none.safetensors'}}}"), tmp_path / "b", quiet=True)
+        missing = tmp_path / "none.safetensors"
+        Trainer(tiny_recipe(f"training.init={{checkpoint: {missing}}}"), tmp_path / "b", quiet=True)
     with pytest.raises(CheckpointError, match=r"training.init.weights: the checkpoint has no parameter starting with "
                                               r"'heads.'"):
         Trainer(tiny_recipe(f"training.init={{checkpoint: {first}, weights: [heads.]}}"), tmp_path / "c", quiet=True)

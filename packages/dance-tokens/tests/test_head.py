@@ -65,7 +65,8 @@ def test_stack_pool_keeps_the_frame_a_beat_falls_on(registry, tiny_encoder):
     early[0, 1], late[0, 6] = 1.0, 1.0
     assert torch.equal(to_tokens(early, 8), to_tokens(late, 8))
     assert not torch.equal(to_tokens(early, 8, "stack"), to_tokens(late, 8, "stack"))
-    encoder = registry.create("encoder", "tm2d-audio", {**tiny_encoder, "pool": "stack"}, EncoderContext(6, {"music": 3}))
+    options = {**tiny_encoder, "pool": "stack"}
+    encoder = registry.create("encoder", "tm2d-audio", options, EncoderContext(6, {"music": 3}))
     assert encoder.embed.in_features == 24
     with torch.no_grad():
         beats = torch.zeros(1, 16, 3)

@@ -36,6 +36,7 @@ from dance_core.data.files import read_motion_file
 from dance_core.data.motion_info import MotionInfo
 from dance_core.data.prepare import PreparedData
 from dance_core.data.prepare import prepare_data as _prepare_data
+from dance_core.data.sources import ClipSource
 from dance_core.distributed import barrier, run_local
 from dance_core.distributed import session as rank_session
 from dance_core.evaluation.report import Report
@@ -43,7 +44,6 @@ from dance_core.formats.wav import write_wav
 from dance_core.likelihood import held_out_nll
 from dance_core.model import ComposedModel, build_model
 from dance_core.motion.retarget import retarget
-from dance_core.data.sources import ClipSource
 from dance_core.protocols import JointClip, MotionData
 from dance_core.recipe import Recipe, load_recipe
 from dance_core.registry import get_registry
