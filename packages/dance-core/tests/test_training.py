@@ -93,6 +93,28 @@ def test_resume_equals_an_uninterrupted_run(tiny_recipe, tmp_path):
     assert [r for r in strip(log_b) if r["step"] != 17] == strip(log_a)
 
 
+def test_a_kill_between_the_pairs_renames_resumes_from_the_previous_pair(tiny_recipe, tmp_path):
+    """SIGKILL cannot be held off: landing between the renames of a checkpoint pair it leaves the new
+    model beside the old training state. The old model, kept until both are in place, is taken back
+    and the resumed run equals an uninterrupted one."""
+    import os
+    import shutil
+
+    recipe = tiny_recipe("training.checkpoint_every=1000")
+    straight = train(recipe, out=str(tmp_path / "a"), quiet=True)
+    run = tmp_path / "b"
+    train(recipe, out=str(run), quiet=True, stop_at=17)
+    later = train(recipe, out=str(tmp_path / "c"), quiet=True, stop_at=23)  # the model the kill published
+    os.link(run / "model.safetensors", run / "model.previous.safetensors")  # what save() keeps meanwhile
+    shutil.copyfile(later.checkpoint, tmp_path / "published")
+    os.replace(tmp_path / "published", run / "model.safetensors")  # the first of the pair's two renames
+    assert load_checkpoint(run / "model.safetensors").step == 23
+    resumed = train(recipe, out=str(run), quiet=True, resume=True)
+    a, b = weights(straight.checkpoint), weights(resumed.checkpoint)
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    assert not (run / "model.previous.safetensors").exists()
+
+
 def test_resume_without_a_run_is_a_clear_error(tiny_recipe, tmp_path):
     with pytest.raises(CheckpointError, match="not found"):
         train(tiny_recipe(), out=str(tmp_path), quiet=True, resume=True)

@@ -164,11 +164,23 @@ class RunFolder:
         with open(self.log_file, "a", encoding="utf-8") as fh:
             fh.write(json.dumps(record) + "\n")
 
+    @property
+    def previous_model(self) -> Path:
+        """The checkpoint being replaced, kept while a new pair is renamed into place."""
+        return self.path / "model.previous.safetensors"
+
     def save(self, model: Any, stats: Any, recipe: Recipe, motion: Any, step: int, run: str, optimizer: Any) -> Path:
-        """Write the model checkpoint and the training state as one output set (both or neither)."""
+        """Write the model checkpoint and the training state as one output set (both or neither). The
+        set is renamed into place model first; a SIGKILL between the two renames (signals cannot be held
+        off against it) would leave a new model beside the old state, so the old model is kept, hard
+        linked, until both are in place, and :meth:`resume_checkpoint` goes back to it."""
         with OutputSet() as out:
             save_checkpoint(out.path(self.model), model, stats, recipe, motion, step, run)
             save_train_state(out.path(self.state), optimizer, step, run)
+            if self.model.exists():
+                self.previous_model.unlink(missing_ok=True)
+                os.link(self.model, self.previous_model)
+        self.previous_model.unlink(missing_ok=True)
         return self.model
 
     def resume_checkpoint(self, recipe: Recipe) -> Checkpoint:
@@ -179,6 +191,11 @@ class RunFolder:
         if not self.state.exists():
             raise CheckpointError(f"{self.state}: training state not found; cannot resume")
         state_step, state_run = train_state_info(self.state)
+        if state_step != ckpt.step and self.previous_model.exists():
+            previous = load_checkpoint(self.previous_model)
+            if previous.step == state_step:  # killed between the pair's two renames: the old pair is whole
+                os.replace(self.previous_model, self.model)
+                ckpt = previous
         if state_step != ckpt.step:
             raise CheckpointError(f"{self.path}: model checkpoint is at step {ckpt.step} but the training "
                                   f"state at step {state_step}; they do not belong together, cannot resume")
