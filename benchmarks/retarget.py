@@ -54,12 +54,11 @@ from dance_core.api import read_motion, retarget
 from dance_core.motion import (
     GroundingOptions,
     RigFrames,
+    arms_lowered,
     dance24,
-    expmap_to_quat,
     find_feet,
     foot_contacts,
     foot_speeds,
-    quat_rotate,
     renamed,
     rig_frames,
     sole_heights,
@@ -75,23 +74,9 @@ LIMBS = [(f"{s}_{a}", f"{s}_{b}") for s in "LR" for a, b in
          (("Collar", "Shoulder"), ("Shoulder", "Elbow"), ("Elbow", "Wrist"), ("Hip", "Knee"), ("Knee", "Ankle"))]
 
 
-def a_pose(skel: Skeleton, degrees: float = 45.0) -> Skeleton:
-    """``skel`` (SMPL-24 names, T-pose) with both arms lowered by ``degrees`` at rest: the offsets and
-    End Sites from the elbow down turn about the body's forward axis."""
-    offsets, ends = skel.offsets.copy(), dict(skel.end_sites)
-    for side, sign in (("L", 1.0), ("R", -1.0)):
-        turn = expmap_to_quat(np.array([0.0, 0.0, -sign * np.radians(degrees)]))
-        for part in ("Elbow", "Wrist", "Hand"):
-            j = skel.names.index(f"{side}_{part}")
-            offsets[j] = quat_rotate(turn, offsets[j])
-            if j in ends:
-                ends[j] = quat_rotate(turn, ends[j])
-    return replace(skel, offsets=offsets, end_sites=ends, name=f"{skel.name}-apose")
-
-
 def mixamo_rig() -> Skeleton:
     """Our body as a Mixamo character would carry it: ``mixamorig:`` names, centimetres, A-pose."""
-    return renamed(a_pose(dance24()), "mixamo", "mixamorig:").scaled(100.0, "cm")
+    return renamed(arms_lowered(dance24()), "mixamo", "mixamorig:").scaled(100.0, "cm")
 
 
 def narrow_shoulders(skel: Skeleton, source: Skeleton) -> Skeleton:

@@ -6,9 +6,7 @@ own importer run headless (skipped without ``blender`` on PATH; ``make install``
 package when run as root).
 """
 
-import json
-import shutil
-import subprocess
+import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -23,8 +21,9 @@ from dance_core.motion.motion import Motion
 from dance_core.motion.skeleton import Skeleton
 from dance_core.motion.skeletons import dance24, transflower21
 
-BLENDER = shutil.which("blender")
-BLENDER_SCRIPT = Path(__file__).resolve().parent / "blender" / "bvh_floor.py"
+sys.path.insert(0, str(Path(__file__).parent))
+from blender_helpers import needs_blender, run_blender, y_up  # noqa: E402
+
 CM = {"m": 0.01, "cm": 1.0}  # one centimetre in a skeleton's units
 
 
@@ -190,23 +189,7 @@ def test_the_root_option_through_the_config():
         BvhFormat(root="sideways")
 
 
-def _blender_positions(path: Path, out: Path) -> tuple[dict, str]:
-    """Run Blender's importer on ``path`` through ``blender/bvh_floor.py``; its JSON and its log."""
-    run = subprocess.run([BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python",
-                          str(BLENDER_SCRIPT), "--", str(path), str(out)],
-                         capture_output=True, text=True, timeout=180, check=False)
-    assert run.returncode == 0 and out.is_file(), f"blender failed: {(run.stderr or run.stdout)[-2000:]}"
-    return json.loads(out.read_text()), run.stdout
-
-
-def _from_blender(points: list) -> np.ndarray:
-    """Blender world points (Z up, imported with axis_forward=-Z, axis_up=Y) back in the file's Y-up axes."""
-    p = np.asarray(points, float)
-    return np.stack([p[..., 0], p[..., 2], -p[..., 1]], axis=-1)
-
-
-@pytest.mark.skipif(BLENDER is None, reason="needs Blender: `apt-get install blender` "
-                    "(`make install` does it when run as root)")
+@needs_blender
 @pytest.mark.parametrize("name", ["dance24", "offset-xyz", "dance24-no-end-sites"])
 def test_blender_imports_our_dancer_onto_the_floor(name, tmp_path):
     """Blender's own BVH importer (headless, a 30-frame dance) puts every bone where our FK puts the
@@ -218,9 +201,9 @@ def test_blender_imports_our_dancer_onto_the_floor(name, tmp_path):
     skel = replace(dance24(), end_sites={}) if name == "dance24-no-end-sites" else SKELETONS[name]()
     motion = _dance(skel, frames=30, seed=6)
     BvhFormat().write_motion(motion, tmp_path / "d.bvh")
-    data, log = _blender_positions(tmp_path / "d.bvh", tmp_path / "d.json")
+    data, log = run_blender(tmp_path / "d.bvh", tmp_path / "d.json")
     assert data["frames"] == motion.n_frames and "zero length" not in log
-    heads, tails = _from_blender(data["heads"]), _from_blender(data["tails"])
+    heads, tails = y_up(data["heads"]), y_up(data["tails"])
     ours = motion.positions(end_sites=True)
     order = [skel.index(n) for n in data["bones"]]
     assert np.abs(heads - ours[:, order]).max() < CM[skel.units]

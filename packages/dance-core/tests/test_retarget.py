@@ -12,7 +12,7 @@ from dance_core.formats.bvh import BvhFormat
 from dance_core.motion.ik import rotation_between
 from dance_core.motion.motion import Motion
 from dance_core.motion.retarget import retarget, rig_frames
-from dance_core.motion.rig_maps import PRESETS, renamed, rig_map
+from dance_core.motion.rig_maps import PRESETS, arms_lowered, renamed, rig_map
 from dance_core.motion.rotations import expmap_to_quat, quat_conj, quat_mul, quat_rotate
 from dance_core.motion.skeleton import Skeleton
 from dance_core.motion.skeletons import dance24
@@ -23,22 +23,6 @@ needs_cmu = pytest.mark.skipif(not CMU.exists(), reason="../shared/fixtures/bvh/
 
 def cmu_take(frames=240):
     return BvhFormat().read_motion(CMU).crop(0, frames)
-
-
-def a_pose(skel: Skeleton, degrees=45.0) -> Skeleton:
-    """The skeleton with its arms lowered by ``degrees`` at rest (offsets below the shoulders turned)."""
-    from dataclasses import replace
-
-    offsets = skel.offsets.copy()
-    ends = dict(skel.end_sites)
-    for side, sign in (("L_", 1.0), ("R_", -1.0)):
-        q = expmap_to_quat(np.array([0.0, 0.0, -sign * np.radians(degrees)]))
-        for part in ("Elbow", "Wrist", "Hand"):
-            j = skel.names.index(side + part)
-            offsets[j] = quat_rotate(q, offsets[j])
-            if j in ends:
-                ends[j] = quat_rotate(q, ends[j])
-    return replace(skel, offsets=offsets, end_sites=ends, name=f"{skel.name}-apose")
 
 
 def with_thumb(skel: Skeleton) -> Skeleton:
@@ -91,7 +75,7 @@ def test_same_body_in_other_units_pose_and_names_moves_the_same():
     """dance24 onto itself in centimetres, in an A-pose, with Mixamo names and an extra joint: every
     joint's trajectory per leg length is the source's (no grounding, so nothing else changes it)."""
     source = dancing(dance24())
-    rig = with_thumb(renamed(a_pose(dance24()), "mixamo", "mixamorig:")).scaled(100.0, "cm")
+    rig = with_thumb(renamed(arms_lowered(dance24()), "mixamo", "mixamorig:")).scaled(100.0, "cm")
     out, report = retarget(source, rig, ground=False)
     assert report.source_map == "smpl" and report.target_map == "mixamo"
     assert report.scale == pytest.approx(100.0) and report.unmapped_target == ["mixamorig:LeftHandThumb1"]
@@ -102,7 +86,7 @@ def test_same_body_in_other_units_pose_and_names_moves_the_same():
 
 def test_round_trip_a_to_b_to_a_gives_the_source_back():
     source = dancing(dance24(), seed=3)
-    rig = renamed(a_pose(dance24()), "unreal").scaled(0.8)
+    rig = renamed(arms_lowered(dance24()), "unreal").scaled(0.8)
     there, _ = retarget(source, rig, ground=False)
     back, _ = retarget(there, dance24(), ground=False)
     assert_same_up_to_floor(back.positions(), source.positions())
@@ -208,7 +192,7 @@ def test_cli_retargets_and_writes_nothing_on_failure(tmp_path, capsys):
     written = BvhFormat().read_motion(out)
     assert written.skeleton.permutation_to(dance24()) is not None and written.n_frames == 120
     rig = tmp_path / "mixamo.bvh"
-    mixamo = renamed(a_pose(dance24()), "mixamo", "mixamorig:").scaled(100.0, "cm")
+    mixamo = renamed(arms_lowered(dance24()), "mixamo", "mixamorig:").scaled(100.0, "cm")
     BvhFormat().write_motion(Motion(mixamo, 30.0, mixamo.offsets[:1], np.tile([0, 0, 0, 1.0], (1, 24, 1))), rig)
     on_rig = tmp_path / "on-rig.bvh"
     assert main(["-q", "retarget", str(out), "--to", str(rig), "-o", str(on_rig), "--fps", "30"]) == 0

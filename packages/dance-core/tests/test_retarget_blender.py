@@ -8,10 +8,7 @@ head or tail of each frame where our forward kinematics puts the lowest joint or
 and the dancer must stand on Blender's floor (median lowest point within 2 cm of 0, in metres).
 """
 
-import json
-import shutil
-import subprocess
-from dataclasses import replace
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -20,13 +17,12 @@ import pytest
 from dance_core.cli.main import main
 from dance_core.formats.bvh import BvhFormat
 from dance_core.motion.motion import Motion
-from dance_core.motion.rig_maps import renamed
-from dance_core.motion.rotations import expmap_to_quat, quat_rotate
-from dance_core.motion.skeleton import Skeleton
+from dance_core.motion.rig_maps import arms_lowered, renamed
 from dance_core.motion.skeletons import dance24
 
-BLENDER = shutil.which("blender")
-BLENDER_SCRIPT = Path(__file__).resolve().parent / "blender" / "bvh_floor.py"
+sys.path.insert(0, str(Path(__file__).parent))
+from blender_helpers import needs_blender, run_blender, y_up  # noqa: E402
+
 CMU = Path(__file__).resolve().parents[3] / ".." / "shared" / "fixtures" / "bvh" / "cmu_01_01.bvh"
 FRAMES = 120
 #: metres per file unit of each result: dance24 is in metres, the Mixamo rig in centimetres, and the CMU
@@ -34,40 +30,9 @@ FRAMES = 120
 METRES = {"dance24": 1.0, "mixamo": 0.01, "back onto CMU": 0.0254 / 0.45}
 
 pytestmark = [
-    pytest.mark.skipif(BLENDER is None, reason="needs Blender: `apt-get install blender` "
-                       "(`make install` does it when run as root)"),
+    needs_blender,
     pytest.mark.skipif(not CMU.exists(), reason="../shared/fixtures/bvh/cmu_01_01.bvh not available"),
 ]
-
-
-def a_pose(skel: Skeleton, degrees: float = 45.0) -> Skeleton:
-    """``skel`` (SMPL-24 names) with both arms lowered ``degrees`` at rest (elbow, wrist and hand offsets
-    and their End Sites turned about the forward axis)."""
-    offsets, ends = skel.offsets.copy(), dict(skel.end_sites)
-    for side, sign in (("L", 1.0), ("R", -1.0)):
-        turn = expmap_to_quat(np.array([0.0, 0.0, -sign * np.radians(degrees)]))
-        for part in ("Elbow", "Wrist", "Hand"):
-            j = skel.names.index(f"{side}_{part}")
-            offsets[j] = quat_rotate(turn, offsets[j])
-            if j in ends:
-                ends[j] = quat_rotate(turn, ends[j])
-    return replace(skel, offsets=offsets, end_sites=ends, name=f"{skel.name}-apose")
-
-
-def _blender(path: Path) -> tuple[dict, str]:
-    """Blender's import of ``path`` (bone heads and tails per frame, Z up) and its log."""
-    out = path.with_suffix(".json")
-    run = subprocess.run([BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python",
-                          str(BLENDER_SCRIPT), "--", str(path), str(out)],
-                         capture_output=True, text=True, timeout=120, check=False)
-    assert run.returncode == 0 and out.is_file(), f"blender failed: {(run.stderr or run.stdout)[-2000:]}"
-    return json.loads(out.read_text()), run.stdout
-
-
-def _y_up(points: list) -> np.ndarray:
-    """Blender world points (imported with axis_forward=-Z, axis_up=Y) back in the file's Y-up axes."""
-    p = np.asarray(points, float)
-    return np.stack([p[..., 0], p[..., 2], -p[..., 1]], axis=-1)
 
 
 @pytest.fixture(scope="module")
@@ -77,21 +42,21 @@ def imported(tmp_path_factory) -> dict[str, tuple[Motion, dict, str]]:
     take = tmp / "take.bvh"
     BvhFormat().write_motion(BvhFormat().read_motion(CMU).crop(0, FRAMES), take)
     rig = tmp / "mixamo-rig.bvh"  # a character file: one frame of its rest pose
-    mixamo = renamed(a_pose(dance24()), "mixamo", "mixamorig:").scaled(100.0, "cm")
+    mixamo = renamed(arms_lowered(dance24()), "mixamo", "mixamorig:").scaled(100.0, "cm")
     BvhFormat().write_motion(Motion(mixamo, 30.0, mixamo.offsets[:1], np.tile([0, 0, 0, 1.0], (1, 24, 1))), rig)
     jobs = {"dance24": (take, "dance24"), "mixamo": (take, str(rig)), "back onto CMU": (tmp / "mixamo.bvh", str(take))}
     out = {}
     for name, (source, target) in jobs.items():
         path = tmp / f"{name.replace(' ', '-').lower()}.bvh"
         assert main(["-q", "retarget", str(source), "--to", target, "-o", str(path)]) == 0
-        data, log = _blender(path)
+        data, log = run_blender(path)
         out[name] = (BvhFormat().read_motion(path), data, log)
     return out
 
 
 def _lowest(data: dict) -> np.ndarray:
     """Blender's lowest bone head or tail per frame (file units, Y up)."""
-    return np.minimum(_y_up(data["heads"])[..., 1].min(axis=1), _y_up(data["tails"])[..., 1].min(axis=1))
+    return np.minimum(y_up(data["heads"])[..., 1].min(axis=1), y_up(data["tails"])[..., 1].min(axis=1))
 
 
 @pytest.mark.parametrize("name", list(METRES))
@@ -104,7 +69,7 @@ def test_blender_sees_every_frame_where_our_kinematics_puts_it(imported, name):
     assert data["frames"] == FRAMES
     ours = motion.positions(end_sites=True)
     order = [motion.skeleton.index(b) for b in data["bones"]]
-    assert np.abs(_y_up(data["heads"]) - ours[:, order]).max() < cm
+    assert np.abs(y_up(data["heads"]) - ours[:, order]).max() < cm
     assert np.abs(_lowest(data) - ours[..., 1].min(axis=1)).max() < cm
 
 

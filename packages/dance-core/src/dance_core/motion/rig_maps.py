@@ -191,3 +191,24 @@ def renamed(skeleton: Skeleton, preset: str, prefix: str = "") -> Skeleton:
     table = PRESETS[preset]
     names = [prefix + table[n][0] if n in table else n for n in skeleton.names]
     return replace(skeleton, names=names, name=f"{skeleton.name}-{preset}")
+
+
+def arms_lowered(skeleton: Skeleton, degrees: float = 45.0) -> Skeleton:
+    """A copy of a skeleton with SMPL-24 joint names (a T-pose) with both arms lowered by ``degrees`` at
+    rest: the offsets and End Sites from the elbow down turned about the body's forward axis (an A-pose
+    rig, as many characters are modelled)."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from dance_core.motion.rotations import expmap_to_quat, quat_rotate
+
+    offsets, ends = skeleton.offsets.copy(), dict(skeleton.end_sites)
+    for side, sign in (("L", 1.0), ("R", -1.0)):
+        turn = expmap_to_quat(np.array([0.0, 0.0, -sign * np.radians(degrees)]))
+        for part in ("Elbow", "Wrist", "Hand"):
+            j = skeleton.index(f"{side}_{part}")
+            offsets[j] = quat_rotate(turn, offsets[j])
+            if j in ends:
+                ends[j] = quat_rotate(turn, ends[j])
+    return replace(skeleton, offsets=offsets, end_sites=ends, name=f"{skeleton.name}-apose")
