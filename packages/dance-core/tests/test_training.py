@@ -216,3 +216,12 @@ def test_init_errors_name_the_checkpoint_and_the_field(tiny_recipe, tmp_path):
     with pytest.raises(CheckpointError, match=r"training.init.weights: encoder\..* has shape"):
         Trainer(tiny_recipe(f"training.init={{checkpoint: {first}, weights: [encoder.]}}", "model.encoder.dim=64"),
                 tmp_path / "d", quiet=True)
+
+
+def test_training_output_fills_in_the_name_but_formats_nothing_else(tiny_recipe, tmp_path):
+    """``training.output`` is user input: ``{name}`` is replaced, any other brace stays as written (no
+    ``str.format`` of a recipe field: ``{name.__class__}`` or ``{0}`` reach nothing)."""
+    from dance_core.train.run_folder import run_dir_for
+
+    recipe = tiny_recipe(f"training.output={tmp_path}/{{name}}-{{name.__class__.__mro__}}-{{0}}")
+    assert run_dir_for(recipe) == tmp_path / f"{recipe.name}-{{name.__class__.__mro__}}-{{0}}"

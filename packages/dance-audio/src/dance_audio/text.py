@@ -17,6 +17,7 @@ extractors:
 
 from __future__ import annotations
 
+import abc
 import os
 import re
 from pathlib import Path
@@ -39,13 +40,13 @@ def tokenize(text: str) -> list[str]:
     return _WORD.findall(text.lower())
 
 
-class SpanRows:
+class SpanRows(abc.ABC):
     """Base of the text extractors: ``span_features`` gives one row per span; ``extract`` lays the rows over
     the frames, as core does for the per-frame stream."""
 
+    @abc.abstractmethod
     def span_features(self, texts: tuple[TextSpan, ...]) -> np.ndarray:
         """``(len(texts), dim())`` float32, one row per span."""
-        raise NotImplementedError
 
     def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
         """``(n_frames, dim())``: each frame the row of the span in force, zeros where none is."""

@@ -34,6 +34,8 @@ _LAZY: dict[str, str] = {
     **dict.fromkeys(("SpanTable", "TextSpans", "span_index"), "dance_core.spans"),
     **dict.fromkeys(("ClipSource",), "dance_core.data.sources"),
     **dict.fromkeys(("Motion", "Skeleton"), "dance_core.motion"),
+    # one quaternion slerp for every package (scalar-last, shorter arc, broadcasting weights)
+    **dict.fromkeys(("quat_slerp",), "dance_core.motion.rotations"),
     # the registry
     **dict.fromkeys(("Registry", "Entry", "get_registry"), "dance_core.registry"),
     # helpers plugins need: audio in, files out

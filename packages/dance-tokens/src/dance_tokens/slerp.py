@@ -16,7 +16,7 @@ from dataclasses import replace
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from dance_core import DataError, Motion
+from dance_core import DataError, Motion, quat_slerp
 
 UP = np.array([0.0, 1.0, 0.0])
 GROUND = np.array([1.0, 0.0, 1.0])
@@ -24,19 +24,10 @@ GROUND = np.array([1.0, 0.0, 1.0])
 
 def slerp(q0: np.ndarray, q1: np.ndarray, w: np.ndarray) -> np.ndarray:
     """Spherical interpolation of unit quaternions ``(..., 4)`` (scalar-last) at fractions ``w (n,)``,
-    along the shorter arc: ``(n, ..., 4)``."""
-    q0, q1 = np.asarray(q0, np.float64), np.asarray(q1, np.float64)
-    dot = (q0 * q1).sum(-1, keepdims=True)
-    q1 = np.where(dot < 0, -q1, q1)
-    theta = np.arccos(np.clip(np.abs(dot), 0.0, 1.0))
-    w = np.asarray(w, np.float64).reshape((-1,) + (1,) * q0.ndim)
-    sin = np.sin(theta)
-    near = sin < 1e-8  # (almost) the same rotation: interpolate linearly and renormalize
-    safe = np.where(near, 1.0, sin)
-    a = np.where(near, 1.0 - w, np.sin((1.0 - w) * theta) / safe)
-    b = np.where(near, w, np.sin(w * theta) / safe)
-    q = a * q0 + b * q1
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+    along the shorter arc: ``(n, ..., 4)`` (core's :func:`~dance_core.quat_slerp`)."""
+    q0 = np.asarray(q0, np.float64)
+    return quat_slerp(q0[None], np.asarray(q1, np.float64)[None],
+                      np.asarray(w, np.float64).reshape((-1,) + (1,) * q0.ndim))
 
 
 def heading(root_rotation: np.ndarray) -> np.ndarray:

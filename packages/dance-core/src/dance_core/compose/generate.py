@@ -26,6 +26,17 @@ def batching_note(model: ComposedModel) -> str | None:
     return None
 
 
+def _generate(model: ComposedModel, streams: dict, frames: int, seed: torch.Tensor, rows: int, recipe: Recipe,
+              device: torch.device, generator, spans, progress) -> np.ndarray:
+    """The model's generation of ``rows`` dances of ``frames`` frames from one seed motion, with the
+    recipe's sampling options and global torch seed; ``(rows, frames, D)`` as NumPy."""
+    torch.manual_seed(recipe.seed)
+    motion = model.generate(streams, frames, seed.unsqueeze(0).expand(rows, -1, -1).to(device),
+                            temperature=recipe.compose.temperature, keep=recipe.compose.keep, generator=generator,
+                            progress=progress, spans=spans)
+    return motion.float().cpu().numpy()
+
+
 def generate_song(
     model: ComposedModel, song: Song, seed: torch.Tensor, recipe: Recipe, device: torch.device,
     progress=None,
@@ -43,18 +54,7 @@ def generate_song(
     spans = None if song.spans is None else TextSpans.stack([song.spans] * c.samples, device)
     generation_threads(model, c.samples, device, c.threads)
     generator = torch.Generator(device=device).manual_seed(recipe.seed)
-    torch.manual_seed(recipe.seed)
-    motion = model.generate(
-        streams,
-        song.n_frames,
-        seed.unsqueeze(0).expand(c.samples, -1, -1).to(device),
-        temperature=c.temperature,
-        keep=c.keep,
-        generator=generator,
-        progress=progress,
-        spans=spans,
-    )
-    motion = motion.float().cpu().numpy()
+    motion = _generate(model, streams, song.n_frames, seed, c.samples, recipe, device, generator, spans, progress)
     if not np.all(np.isfinite(motion)):
         raise DanceError(f"{song.path or song.name}: the model produced NaN or inf motion; nothing was written")
     return motion
@@ -91,18 +91,7 @@ def generate_songs(
     batch = len(songs) * c.samples
     generation_threads(model, batch, device, c.threads)
     generator = RowGenerators.same_seed(recipe.seed, len(songs), c.samples, device)
-    torch.manual_seed(recipe.seed)
-    motion = model.generate(
-        streams,
-        longest,
-        seed.unsqueeze(0).expand(batch, -1, -1).to(device),
-        temperature=c.temperature,
-        keep=c.keep,
-        generator=generator,
-        progress=progress,
-        spans=spans,
-    )
-    motion = motion.float().cpu().numpy()
+    motion = _generate(model, streams, longest, seed, batch, recipe, device, generator, spans, progress)
     out = []
     for k, song in enumerate(songs):
         part = motion[k * c.samples : (k + 1) * c.samples, : song.n_frames]

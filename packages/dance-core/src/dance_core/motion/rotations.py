@@ -148,6 +148,23 @@ def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     return v + w * t + np.cross(u, t)
 
 
+def quat_slerp(q0: np.ndarray, q1: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Spherical interpolation from unit quaternions ``q0`` to ``q1`` (``(..., 4)``, scalar-last) by
+    fractions ``w`` broadcasting against ``q0[..., :1]``, along the shorter arc."""
+    q0, q1 = np.asarray(q0, np.float64), np.asarray(q1, np.float64)
+    dot = (q0 * q1).sum(-1, keepdims=True)
+    q1 = np.where(dot < 0, -q1, q1)
+    theta = np.arccos(np.clip(np.abs(dot), 0.0, 1.0))
+    w = np.asarray(w, np.float64)
+    sin = np.sin(theta)
+    near = sin < 1e-8  # (almost) the same rotation: interpolate linearly and renormalize
+    safe = np.where(near, 1.0, sin)
+    a = np.where(near, 1.0 - w, np.sin((1.0 - w) * theta) / safe)
+    b = np.where(near, w, np.sin(w * theta) / safe)
+    q = a * q0 + b * q1
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
 def yaw_quat(angle: np.ndarray) -> np.ndarray:
     """Quaternions of rotations by ``angle`` radians about +Y."""
     a = np.asarray(angle, np.float64) / 2

@@ -22,7 +22,7 @@ import numpy as np
 from dance_core.errors import DataError
 from dance_core.motion.motion import Motion
 from dance_core.motion.root import heading
-from dance_core.motion.rotations import quat_mul, quat_rotate, yaw_quat
+from dance_core.motion.rotations import quat_mul, quat_rotate, quat_slerp, yaw_quat
 
 
 @dataclass(frozen=True)
@@ -139,7 +139,7 @@ class MotionGraph:
         hi = np.minimum(lo + 1, take.n_frames - 1)
         w = (frames - lo)[:, None]
         root = (1 - w) * take.root[lo] + w * take.root[hi]
-        return root, _slerp(take.rotations[lo], take.rotations[hi], w)
+        return root, quat_slerp(take.rotations[lo], take.rotations[hi], w[:, None])
 
     def dance(self, beats: np.ndarray, seconds: float, fps: float, rng: np.random.Generator,
               downbeats: np.ndarray | None = None, sections: np.ndarray | None = None) -> Motion:
@@ -179,7 +179,7 @@ class MotionGraph:
             rot[:, 0] = quat_mul(turn, rot[:, 0])
             if transition and last_rot is not None and len(out_t):
                 w = np.clip((np.arange(len(root)) + 1) / max(1, round(o.blend * fps)), 0, 1)[:, None]
-                rot = _slerp(np.repeat(last_rot[None], len(rot), 0), rot, w)
+                rot = quat_slerp(np.repeat(last_rot[None], len(rot), 0), rot, w[:, None])
                 root[:, 1] = (1 - w[:, 0]) * last_root[1] + w[:, 0] * root[:, 1]
             if len(out_t):
                 out_root[out_t], out_rot[out_t] = root[:-1], rot[:-1]
@@ -194,20 +194,6 @@ class MotionGraph:
                 bars = 0
             i = nxt
         return Motion(self.takes[0].skeleton, fps, out_root, out_rot)
-
-
-def _slerp(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Slerp from quaternions ``a`` to ``b`` ``(T, J, 4)`` by weights ``w`` ``(T, 1)``."""
-    dot = (a * b).sum(-1, keepdims=True)
-    b = np.where(dot < 0, -b, b)
-    theta = np.arccos(np.clip(np.abs(dot), -1.0, 1.0))
-    s = np.sin(theta)
-    w = w[:, None, :]
-    small = s < 1e-6
-    wa = np.where(small, 1 - w, np.sin((1 - w) * theta) / np.where(small, 1, s))
-    wb = np.where(small, w, np.sin(w * theta) / np.where(small, 1, s))
-    out = wa * a + wb * b
-    return out / np.linalg.norm(out, axis=-1, keepdims=True)
 
 
 def real_dance(graph: MotionGraph, beats: np.ndarray, seconds: float, fps: float, rng: np.random.Generator,

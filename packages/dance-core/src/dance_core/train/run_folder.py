@@ -41,8 +41,9 @@ _held_locks: set[Path] = set()
 
 
 def run_dir_for(recipe: Recipe, out: str | None = None) -> Path:
-    """The run folder: ``--out`` or ``training.output`` with ``{name}`` filled in."""
-    return Path(out or recipe.training.output.format(name=recipe.name))
+    """The run folder: ``--out`` or ``training.output`` with ``{name}`` replaced by the recipe's name
+    (a plain replacement: the field is user input, never a format string)."""
+    return Path(out or recipe.training.output.replace("{name}", recipe.name))
 
 
 def run_id(recipe: Recipe) -> str:
