@@ -54,7 +54,8 @@ def run_compose(noisy, out: Path, *extra: str) -> tuple[int, dict]:
 
 
 def files(folder: Path) -> dict[str, bytes]:
-    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+    """The outputs in ``folder`` (not the hidden manifests that record each song's committed set)."""
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if not p.name.startswith(".")}
 
 
 def test_shard_parse_and_select_partition_the_sorted_songs():
@@ -129,7 +130,7 @@ def test_complete_songs_are_skipped_an_incomplete_one_redone_and_overwrite_redoe
     assert [Path(s).name for s in again["skipped_songs"]] == ["s1.wav", "s2.wav", "s4.wav"]
     assert sorted(Path(f).name for f in again["files"]) == ["s0-0.npz", "s0-1.npz", "s3-0.npz", "s3-1.npz"]
     assert files(out) == first
-    assert {p.name for p in out.iterdir() if p.stat().st_mtime == stamp} == {
+    assert {p.name for p in out.iterdir() if p.stat().st_mtime == stamp and p.suffix == ".npz"} == {
         f"s{k}-{j}.npz" for k in (1, 2, 4) for j in range(2)}  # untouched
     assert run_compose(noisy, out, "--music", str(noisy["songs"]), "--format", "npz") == 0
     nothing = json.loads(capsys.readouterr().out)
@@ -180,11 +181,17 @@ def test_songs_with_one_name_are_refused_across_shards(noisy, tmp_path):
     assert not (tmp_path / "o").exists()
 
 
-def test_complete_needs_every_file_non_empty(tmp_path):
-    a, b = tmp_path / "a.npz", tmp_path / "b.npz"
+def test_complete_needs_the_committed_manifest_and_every_file_at_its_size(tmp_path):
+    from dance_core.atomic import OutputSet
+
+    a, b, manifest = tmp_path / "a.npz", tmp_path / "b.npz", tmp_path / ".a.outputs.json"
     a.write_bytes(b"x")
-    assert not complete([a, b])
-    b.write_bytes(b"")
-    assert not complete([a, b])
     b.write_bytes(b"y")
-    assert complete([a, b])
+    assert not complete([a, b], manifest)  # files there, but no committed set says they belong together
+    with OutputSet(manifest) as out:
+        out.path(a).write_bytes(b"new a")
+        out.path(b).write_bytes(b"new b")
+    assert complete([a, b], manifest)
+    assert not complete([a], manifest) and not complete([a, b, tmp_path / "c.npz"], manifest)
+    b.write_bytes(b"old")  # one file of the set replaced since: not whole
+    assert not complete([a, b], manifest)

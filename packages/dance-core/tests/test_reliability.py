@@ -298,7 +298,7 @@ def test_resume_refuses_a_model_and_state_that_do_not_belong_together(tiny_recip
         train(tiny_recipe(), out=str(run), quiet=True, resume=True)
     # the same step, another run (another learning rate): the run ids differ
     train(tiny_recipe("training.optimizer.lr=0.001"), out=str(other), quiet=True, stop_at=20)
-    train(tiny_recipe(), out=str(run), quiet=True, stop_at=20)
+    train(tiny_recipe(), out=str(run), quiet=True, stop_at=20, overwrite=True)
     shutil.copy(other / "state.safetensors", run / "state.safetensors")
     with pytest.raises(CheckpointError, match="come from different runs") as err:
         train(tiny_recipe(), out=str(run), quiet=True, resume=True)
@@ -527,7 +527,8 @@ def test_sigkill_during_compose_then_a_retry_writes_the_whole_set(tiny_recipe, c
     retry = dance(*args)
     _, err = retry.communicate(timeout=300)
     assert retry.returncode == 0, err
-    assert sorted(p.name for p in out.iterdir()) == sorted(f"s{k}-{i}.npz" for k in range(3) for i in range(2))
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        [f"s{k}-{i}.npz" for k in range(3) for i in range(2)] + [f".s{k}.outputs.json" for k in range(3)])
     with np.load(out / "s2-1.npz") as f:
         assert f["values"].shape == (400, 18)
 

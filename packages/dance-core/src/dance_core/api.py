@@ -100,18 +100,21 @@ __all__ = [
 @dataclass(frozen=True)
 class TrainOptions:
     """How one training runs: ``out`` the run folder (default ``training.output``), ``resume`` the run
-    in it, ``stop_at`` a step to checkpoint and stop at, ``quiet`` without a progress bar."""
+    in it, ``stop_at`` a step to checkpoint and stop at, ``quiet`` without a progress bar, ``overwrite``
+    replace a run already in the folder (else that is an error)."""
 
     out: str | Path | None = None
     resume: bool = False
     stop_at: int | None = None
     quiet: bool = False
+    overwrite: bool = False
 
 
 def train(recipe: Recipe, options: TrainOptions | None = None) -> TrainResult:
     """Train the recipe's model into its run folder (``dance train``; see ``dance_core.train.train``)."""
     o = options or TrainOptions()
-    return _train(recipe, out=str(o.out) if o.out else None, resume=o.resume, quiet=o.quiet, stop_at=o.stop_at)
+    return _train(recipe, out=str(o.out) if o.out else None, resume=o.resume, quiet=o.quiet, stop_at=o.stop_at,
+                  overwrite=o.overwrite)
 
 
 def run_dir(recipe: Recipe, options: TrainOptions | None = None) -> Path:

@@ -9,8 +9,10 @@ is removed by :func:`sweep_stale_temps` the next time an output set writes that 
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import signal
+import stat
 import tempfile
 import threading
 from collections.abc import Iterable, Iterator
@@ -78,10 +80,29 @@ def output_mode() -> int:
     return 0o666 & ~umask
 
 
+#: longest target name kept whole in its temporary name (file systems allow 255 bytes a name)
+_TEMP_NAME_MAX = 160
+
+
+def temp_stem(name: str) -> str:
+    """The part of a temporary name standing for the target ``name``: the name itself, or for a name
+    near the file-name length limit its head and a digest, so the temporary name still fits."""
+    if len(name.encode("utf-8", "surrogateescape")) <= _TEMP_NAME_MAX:
+        return name
+    import hashlib
+
+    digest = hashlib.sha256(name.encode("utf-8", "surrogateescape")).hexdigest()[:12]
+    head = name.encode("utf-8", "surrogateescape")[:100].decode("utf-8", "ignore")
+    return f"{head}~{digest}"
+
+
 def _temp_file(path: Path, suffix: str | None) -> Path:
+    suffix = suffix if suffix is not None else path.suffix
+    if len(suffix) > 16:
+        suffix = ""
     fd, tmp = tempfile.mkstemp(
-        prefix=f".{path.name}{TEMP_MARK}{os.getpid()}-",
-        suffix=suffix if suffix is not None else path.suffix,
+        prefix=f".{temp_stem(path.name)}{TEMP_MARK}{os.getpid()}-",
+        suffix=suffix,
         dir=path.parent,
     )
     os.close(fd)
@@ -94,7 +115,31 @@ def _publish(tmp: Path, path: Path, mode: int) -> None:
     os.replace(tmp, path)
 
 
+_SPECIAL = ((stat.S_ISLNK, "a symbolic link"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+            (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"))
+
+
+def special_file(path: str | Path) -> str | None:
+    """What ``path`` is when it is neither absent, a folder nor a regular file (``"a symbolic link"``,
+    ``"a character device"``, ...), looked at without following a link; else None."""
+    try:
+        mode = os.lstat(path).st_mode
+    except OSError:
+        return None
+    return next((what for test, what in _SPECIAL if test(mode)), None)
+
+
+def refuse_special(path: str | Path, label: str | None = None) -> None:
+    """One line when ``path`` is a link, a device, a FIFO or a socket: dance writes only regular files,
+    so it never replaces (or writes through) what it did not create."""
+    what = special_file(path)
+    if what is not None:
+        raise DataError(f"{label or path}: is {what}, not a regular file; dance writes only regular files and "
+                        "never replaces a link, device or pipe (name a new or regular file)")
+
+
 def _check_target(path: Path) -> None:
+    refuse_special(path)
     if path.is_dir():
         raise DataError(f"{path}: is a folder; cannot write a file there")
 
@@ -120,13 +165,24 @@ def temp_owner(name: str, targets: Iterable[str] | None = None) -> int | None:
     if not name.startswith("."):
         return None
     bare = name.lstrip(".")
-    candidates = [t.lstrip(".") for t in targets] if targets is not None else [bare.split(TEMP_MARK, 1)[0]]
+    candidates = ([temp_stem(t).lstrip(".") for t in targets] if targets is not None
+                  else [bare.split(TEMP_MARK, 1)[0]])
     for target in candidates:
         head = f"{target}{TEMP_MARK}"
         if target and bare.startswith(head):
             pid = bare[len(head) :].split("-", 1)[0]
             return int(pid) if pid.isdigit() else None
     return None
+
+
+def target_of(path: str | Path) -> Path:
+    """The file a temporary path of ours stands for (``.song.html.dance-PID-XXXX.html`` -> ``song.html``);
+    any other path as it is. What a writer handed a temporary path names its output by."""
+    path = Path(path)
+    name = path.name
+    if temp_owner(name) is None:
+        return path
+    return path.with_name(name[1:].split(TEMP_MARK, 1)[0])
 
 
 def sweep_stale_temps(folder: str | Path, targets: Iterable[str] | None = None) -> list[Path]:
@@ -174,11 +230,16 @@ class OutputSet:
     block succeeds every temporary file is renamed onto its target in one pass, and when it fails
     (an error, Ctrl-C, SIGTERM) every one is removed, so no target is replaced. Stale temporary files
     of the same targets, left by a killed process, are swept away first.
+
+    ``manifest``: a file that records the committed set (each file's name and size). It is removed
+    before the first rename and written, atomically, after the last, so a set whose commit was cut
+    short (a failed rename, a kill) has no manifest and :func:`set_complete` never takes it as whole.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, manifest: str | Path | None = None) -> None:
         self._pending: list[tuple[Path, Path]] = []
         self._stack = contextlib.ExitStack()
+        self.manifest = Path(manifest) if manifest is not None else None
 
     def __enter__(self) -> OutputSet:
         self._stack.enter_context(sigterm_as_interrupt())
@@ -207,10 +268,19 @@ class OutputSet:
             _check_target(target)
             if not tmp.exists():
                 raise DataError(f"{target}: its writer left no file")
+        record = None
+        if self.manifest is not None:
+            _check_target(self.manifest)
+            record = json.dumps({"files": [{"name": t.name, "size": tmp.stat().st_size} for tmp, t in self._pending]},
+                                sort_keys=True)
         with _signals_held():  # an interrupt lands after the rename pass, never inside it
+            if self.manifest is not None:
+                self.manifest.unlink(missing_ok=True)  # from here until the last rename the set is not whole
             for tmp, target in self._pending:
                 _publish(tmp, target, mode)
             self._pending = []
+            if self.manifest is not None and record is not None:
+                write_text(self.manifest, record + "\n")
 
     def discard(self) -> None:
         """Remove every temporary file not yet committed."""
@@ -227,6 +297,26 @@ class OutputSet:
         finally:
             self.discard()
             self._stack.close()
+
+
+def set_complete(manifest: str | Path, targets: Iterable[str | Path]) -> bool:
+    """True when ``manifest`` (written by a committed :class:`OutputSet`) lists exactly ``targets`` and
+    each is a regular file of the recorded size: a set cut short, or a file replaced since, is not whole."""
+    manifest = Path(manifest)
+    if special_file(manifest) is not None or not manifest.is_file():
+        return False
+    try:
+        files = json.loads(manifest.read_text(encoding="utf-8"))["files"]
+        recorded = {str(f["name"]): int(f["size"]) for f in files}
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+    targets = [Path(t) for t in targets]
+    if sorted(recorded) != sorted(t.name for t in targets):
+        return False
+    for t in targets:
+        if special_file(t) is not None or not t.is_file() or t.stat().st_size != recorded[t.name]:
+            return False
+    return True
 
 
 def write_text(path: str | Path, text: str) -> None:

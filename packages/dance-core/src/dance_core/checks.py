@@ -17,7 +17,9 @@ import os
 import tempfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import Any
 
+from dance_core.atomic import special_file
 from dance_core.errors import DanceError
 
 
@@ -147,6 +149,10 @@ def check_output_file(
     if not str(path).strip():
         raise DanceError(f"{option or 'output'}: empty file name")
     allowed = [s.lower() for s in suffixes or ()]
+    what = special_file(p)
+    if what is not None:
+        raise DanceError(f"{label}: is {what}, not a regular file; dance writes only regular files and never "
+                         "replaces a link, device or pipe (name a new or regular file)")
     if p.is_dir():
         example = f" (e.g. {p / ('out' + allowed[0])})" if allowed else ""
         raise DanceError(f"{label}: is a folder; give a file name inside it{example}")
@@ -162,7 +168,41 @@ def check_output_dir(path: str | Path, option: str | None = None) -> Path:
     label = _label(path, option)
     if not str(path).strip():
         raise DanceError(f"{option or 'output'}: empty folder name")
+    what = special_file(p)
+    if what is not None and not (what == "a symbolic link" and p.is_dir()):  # a link to a folder is a folder
+        raise DanceError(f"{label}: is {what}, not a folder")
     if p.exists() and not p.is_dir():
         raise DanceError(f"{label}: is a file, not a folder")
     _writable_ancestor(p, label)
     return p
+
+
+def refuse_same_names(paths: Iterable[str | Path], option: str | None = None, what: str = "song",
+                      outputs: str = "dances") -> None:
+    """One line, before any work, when two inputs would write outputs of the same name (``a/song.wav``
+    and ``b/song.wav`` both give ``song.*``): one would silently replace the other."""
+    seen: dict[str, str] = {}
+    for path in paths:
+        name = Path(path).stem
+        if name in seen:
+            raise DanceError(f"{_label(path, option)}: another {what} ({seen[name]}) has the same name; their "
+                             f"{outputs} would overwrite each other (rename one)")
+        seen[name] = str(path)
+
+
+def nonfinite_reason(positions: Any, names: list[str] | None = None) -> str | None:
+    """Where joint positions first hold NaN or inf (``"NaN at frame 12, joint 'Hips' (30 values)"``), or None."""
+    import numpy as np
+
+    bad = ~np.isfinite(np.asarray(positions, dtype=np.float64))
+    if not bad.any():
+        return None
+    index = np.argwhere(bad)[0]
+    frame = int(index[0])
+    joint = ""
+    if len(index) > 1:
+        j = int(index[1])
+        joint = f", joint {names[j]!r}" if names and j < len(names) else f", joint {j}"
+    value = np.asarray(positions, dtype=np.float64)[tuple(index)]
+    kind = "NaN" if np.isnan(value) else "inf"
+    return f"{kind} at frame {frame}{joint} ({int(bad.sum())} non-finite values)"

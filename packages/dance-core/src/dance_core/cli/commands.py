@@ -53,13 +53,14 @@ def _where(inputs, name: str) -> str:
 
 def _check_compose_inputs(inputs) -> None:
     """The songs and checkpoint compose will read, and the folder it will write, checked before any work."""
-    from dance_core.checks import check_input_file, check_output_dir
+    from dance_core.checks import check_input_file, check_output_dir, refuse_same_names
     from dance_core.cli.checks import check_smpl_model, warn
 
     where = _where(inputs, "music")
-    for music in inputs.music:
-        for song in music.songs(where):  # a folder without songs is one line; an empty file stops before any work
-            check_input_file(song, where, "audio file")
+    songs = [song for music in inputs.music for song in music.songs(where)]  # a folder without songs: one line
+    refuse_same_names(songs, where)  # a/song.wav and b/song.wav would write one set of files
+    for song in songs:
+        check_input_file(song, where, "audio file")  # an empty file stops before any work
     if inputs.checkpoint is not None:
         check_input_file(inputs.checkpoint, _where(inputs, "checkpoint"), "checkpoint", in_folder="model.safetensors")
     if inputs.seed_motion not in (None, "rest"):  # as given, else beside the recipe (as compose reads it)
@@ -144,12 +145,19 @@ def train(args: Namespace) -> int:
     if args.stop_at is not None and args.stop_at > total:
         field = "training.stages" if recipe.training.stages else "training.steps"
         raise DanceError(f"--stop-at {args.stop_at}: the run has {total} steps ({field}); give 1 to {total}")
-    options = api.TrainOptions(out=args.out, resume=args.resume, stop_at=args.stop_at, quiet=args.quiet)
+    if args.resume and args.overwrite:
+        raise DanceError("--resume and --overwrite: give one (continue the run in the folder, or replace it)")
+    options = api.TrainOptions(out=args.out, resume=args.resume, stop_at=args.stop_at, quiet=args.quiet,
+                               overwrite=args.overwrite)
     run_dir = api.run_dir(recipe, options)
     option = "-o" if args.out else "training.output"
     check_output_dir(run_dir, option)
     if args.resume and not run_dir.is_dir():
         raise DanceError(f"--resume: {option} {run_dir}: run folder not found; nothing to resume")
+    if not args.resume and not args.overwrite:
+        from dance_core.train import refuse_existing_run
+
+        refuse_existing_run(run_dir, option)  # before any work; checked again under the run's lock
     if nproc is not None:
         from dance_core.distributed import launch
 
@@ -176,6 +184,8 @@ def _train_argv(args: Namespace) -> list[str]:
         argv += ["--out", args.out]
     if args.resume:
         argv.append("--resume")
+    if args.overwrite:
+        argv.append("--overwrite")
     if args.stop_at is not None:
         argv += ["--stop-at", str(args.stop_at)]
     for value in args.sets:

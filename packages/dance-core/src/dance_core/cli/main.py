@@ -57,6 +57,13 @@ class Parser(argparse.ArgumentParser):
         self.command_groups.append(action)
         return action
 
+    def _get_values(self, action, arg_strings):  # noqa: D102 - argparse hook: no empty value anywhere
+        if isinstance(arg_strings, list) and any(not a.strip() for a in arg_strings if isinstance(a, str)):
+            if not isinstance(action, argparse._SubParsersAction):
+                name = "/".join(action.option_strings) or action.metavar or action.dest
+                self.error(f"argument {name}: empty value (give a file, folder or value, not '')")
+        return super()._get_values(action, arg_strings)
+
     def error(self, message: str):  # noqa: D102 - argparse hook
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
@@ -169,6 +176,8 @@ def _train_parser(sub) -> None:
     p.add_argument("recipe", help="recipe file or bundled recipe name (dance recipe list)")
     p.add_argument("-o", "--out", metavar="DIR", help="run folder (default: training.output)")
     p.add_argument("--resume", action="store_true", help="continue the run in the run folder")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a run already in the run folder (default: refuse to)")
     p.add_argument("--stop-at", type=bounded_number(int, 1), metavar="STEP",
                    help="checkpoint and stop at this step (1 to the recipe's total steps)")
     p.add_argument("--nproc-per-node", type=bounded_number(int, 1, 1024), metavar="N",

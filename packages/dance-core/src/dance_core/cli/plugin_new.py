@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
     if spec.recipe:
         print(f"  dance train {args.name}-example --set training.steps=200")
     else:
-        print(f"  {spec.try_it.format(name=args.name)}")
+        print(f"  {spec.try_it.replace('{name}', args.name)}")
     return 0
 
 

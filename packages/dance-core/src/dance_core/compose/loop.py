@@ -16,7 +16,7 @@ import torch
 from dance_core.atomic import sweep_stale_temps
 from dance_core.compose.generate import batching_note, generate_song, generate_songs
 from dance_core.compose.inputs import ComposeInputs, ComposeOptions, reads_text, resolve_inputs
-from dance_core.compose.output import complete, output_stems, output_targets, write_song
+from dance_core.compose.output import complete, manifest_path, output_stems, output_targets, write_song
 from dance_core.compose.songs import load_model, load_song, seed_motion
 from dance_core.errors import RecipeError
 from dance_core.progress import progress_bar
@@ -97,7 +97,7 @@ def run_compose(inputs: ComposeInputs) -> Composed:
     todo = []
     for path in mine:
         targets = output_targets(out, stems[path], formats, bool(c.texts))
-        if not options.overwrite and complete(targets):
+        if not options.overwrite and complete(targets, manifest_path(out, path)):
             sweep_stale_temps(out, [t.name for t in targets])  # what a killed run left beside a whole set
             result.skipped.append(path)
         else:

@@ -7,11 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
-from dance_core.atomic import OutputSet
+from dance_core.atomic import OutputSet, set_complete
 from dance_core.checkpoint import Checkpoint
 from dance_core.compose.songs import Song
 from dance_core.data.motion_info import MotionInfo
-from dance_core.errors import DataError
+from dance_core.checks import refuse_same_names
+from dance_core.errors import DanceError, DataError
 from dance_core.protocols import MotionData
 from dance_core.recipe.schema import Recipe
 from dance_core.registry import Registry
@@ -27,11 +28,17 @@ def output_targets(out: Path, stems: list[str], formats: list, texts: bool) -> l
     return targets
 
 
-def complete(targets: list[Path]) -> bool:
-    """True when every file of a song's output set exists and is not empty. A set is committed by
-    renaming its temporary files in one pass with signals held, so only a kill inside that pass (or
-    files removed by hand) leaves part of a set, and a part is never taken as complete."""
-    return all(t.is_file() and t.stat().st_size > 0 for t in targets)
+def manifest_path(out: Path, song_path: str) -> Path:
+    """The hidden file that records a song's committed output set (``.SONG.outputs.json``)."""
+    return Path(out) / f".{Path(song_path).stem}.outputs.json"
+
+
+def complete(targets: list[Path], manifest: Path) -> bool:
+    """True when a song's output set was committed whole: its manifest (written after the last rename
+    of the set, removed before the first) lists exactly ``targets`` and each is there at its recorded
+    size. A set cut short (a failed rename during ``--overwrite``, a kill) or files replaced by hand
+    are never taken as complete; a set written before manifests existed is composed again."""
+    return set_complete(manifest, targets)
 
 
 def write_song(
@@ -41,7 +48,7 @@ def write_song(
     """Decode, ground and write one song's dances ``(samples, frames, D)`` as one output set (every
     file or none); returns the motion files written."""
     c = recipe.compose
-    with OutputSet() as files:
+    with OutputSet(manifest_path(out, song.path)) as files:
         for k, stem in enumerate(stems):
             values = ckpt.stats.motion.invert(motion[k, : song.n_frames])
             data = ckpt.motion.decode(values, recipe.fps, registry)
@@ -77,13 +84,9 @@ def format_suffix(entry) -> str:
 
 def output_stems(paths: list[str], samples: int) -> list[list[str]]:
     """Per song, the file stems of its samples; two songs that would write the same files are an error."""
-    seen: dict[str, str] = {}
-    stems = []
-    for path in paths:
-        name = Path(path).stem
-        if name in seen:
-            raise DataError(f"{path}: another song ({seen[name]}) has the same name; their dances would "
-                            "overwrite each other (rename one)")
-        seen[name] = str(path)
-        stems.append([name] if samples == 1 else [f"{name}-{k}" for k in range(samples)])
-    return stems
+    try:
+        refuse_same_names(paths)
+    except DanceError as exc:
+        raise DataError(str(exc)) from None
+    names = [Path(path).stem for path in paths]
+    return [[name] if samples == 1 else [f"{name}-{k}" for k in range(samples)] for name in names]

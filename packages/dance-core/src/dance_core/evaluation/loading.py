@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dance_core.checks import nonfinite_reason
 from dance_core.data.files import audio_suffixes as readable_audio
 from dance_core.data.files import motion_files, read_motion_file, read_texts
 from dance_core.errors import DataError
@@ -66,22 +67,6 @@ def joint_positions(data: MotionData, where: str) -> tuple[np.ndarray, list[str]
         f"{where}: cannot get joint positions: the format gives no skeleton and the channels are not "
         f"joint coordinates (name.x, name.y, name.z)"
     )
-
-
-def nonfinite_reason(positions: np.ndarray, names: list[str] | None = None) -> str | None:
-    """Where joint positions first hold NaN or inf (``"NaN at frame 12, joint 'Hips' (30 values)"``), or None."""
-    bad = ~np.isfinite(np.asarray(positions, dtype=np.float64))
-    if not bad.any():
-        return None
-    index = np.argwhere(bad)[0]
-    frame = int(index[0])
-    joint = ""
-    if len(index) > 1:
-        j = int(index[1])
-        joint = f", joint {names[j]!r}" if names and j < len(names) else f", joint {j}"
-    value = np.asarray(positions, dtype=np.float64)[tuple(index)]
-    kind = "NaN" if np.isnan(value) else "inf"
-    return f"{kind} at frame {frame}{joint} ({int(bad.sum())} non-finite values)"
 
 
 def load_clips(

@@ -30,8 +30,8 @@ def _sided(table: dict[str, tuple[str, ...]], left: str, right: str) -> dict[str
     out: dict[str, tuple[str, ...]] = {}
     for key, names in table.items():
         if key.startswith("X_"):
-            out["L_" + key[2:]] = tuple(n.format(s=left) for n in names)
-            out["R_" + key[2:]] = tuple(n.format(s=right) for n in names)
+            out["L_" + key[2:]] = tuple(n.replace("{s}", left) for n in names)
+            out["R_" + key[2:]] = tuple(n.replace("{s}", right) for n in names)
         else:
             out[key] = names
     return out

@@ -122,7 +122,7 @@ def apply_override(data: dict[str, Any], assignment: str, smap: SourceMap) -> No
             elif not isinstance(nxt, (dict, list)):
                 raise RecipeError(f"--set {assignment}: {'.'.join(parts[: i + 1])} is not a mapping")
             node = nxt
-    value = parse_value(raw)
+    value = parse_value(raw, f"--set {assignment}")
     if isinstance(node, list):
         index = int(parts[-1]) if parts[-1].lstrip("-").isdigit() else None
         if index is None or not -len(node) <= index < len(node):

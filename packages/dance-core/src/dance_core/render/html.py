@@ -8,9 +8,11 @@ No CDN, no third-party script, no network reference: the page opens offline from
 from __future__ import annotations
 
 import base64
+import html
 import io
 import json
 import math
+import re
 import wave
 from pathlib import Path
 
@@ -18,6 +20,7 @@ import numpy as np
 from scipy.signal import filtfilt
 
 from dance_core.atomic import write_text
+from dance_core.checks import nonfinite_reason
 from dance_core.errors import DataError
 from dance_core.render.frames import bone_colors
 
@@ -229,28 +232,54 @@ def embedded_audio(music: str | Path, seconds: float) -> tuple[str, bytes]:
     return "audio/wav", cut
 
 
+#: characters escaped in JSON embedded in a script block: none can end the block, open a comment or a
+#: tag, or end a line of script where JSON allows it (U+2028, U+2029)
+_SCRIPT_ESCAPES = {"<": "\\u003c", ">": "\\u003e", "&": "\\u0026", "\u2028": "\\u2028", "\u2029": "\\u2029"}
+
+
+def script_json(data: object) -> str:
+    """``data`` as JSON that is inert inside an HTML ``<script>`` block: ``<``, ``>``, ``&``, U+2028 and
+    U+2029 escaped wherever they are (they can only be inside strings), NaN and infinities refused
+    (``ValueError``), so the page parses as the data, whatever strings it holds."""
+    text = json.dumps(data, separators=(",", ":"), allow_nan=False)
+    return re.sub("[<>&\u2028\u2029]", lambda m: _SCRIPT_ESCAPES[m.group(0)], text)
+
+
+def fill_page(page: str, fields: dict[str, str]) -> str:
+    """``page`` with each ``__KEY__`` replaced by ``fields[KEY]`` in one pass, so no value's text is
+    ever searched for another placeholder."""
+    return re.sub("__([A-Z]+)__", lambda m: fields.get(m.group(1), m.group(0)), page)
+
+
 def player_html(positions: np.ndarray, parents: list[int], names: list[str], fps: float,
-                music: str | Path | None = None, title: str = "dance") -> str:
+                music: str | Path | None = None, title: str = "dance", source: str | Path = "motion") -> str:
     """The page's text: positions rounded to 1e-3 of the units, music as a base64 data URI holding
-    only the part the dance covers (see :func:`embedded_audio`)."""
+    only the part the dance covers (see :func:`embedded_audio`). Every user string (title, joint
+    names) is escaped for where it goes; non-finite positions are one line naming ``source``."""
+    positions = np.asarray(positions, np.float64)
+    reason = nonfinite_reason(positions.reshape(len(positions), -1, 3), list(names))
+    if reason is not None or not math.isfinite(float(fps)):
+        raise DataError(f"{source}: cannot preview a motion that holds {reason or f'fps {fps}'}; nothing written")
     data = {
-        "title": title, "fps": float(fps), "frames": int(len(positions)), "names": list(names),
+        "title": str(title), "fps": float(fps), "frames": int(len(positions)), "names": [str(n) for n in names],
         "parents": [int(p) for p in parents], "colors": bone_colors(list(names), list(parents)),
-        "positions": np.round(np.asarray(positions, np.float64).reshape(-1), 3).tolist(),
+        "positions": np.round(positions.reshape(-1), 3).tolist(),
         **framing(positions, fps),
     }
     audio = ""
     if music is not None:
         kind, raw = embedded_audio(music, len(positions) / float(fps))
         payload = base64.b64encode(raw).decode("ascii")
-        audio = f'<audio id="music" preload="auto" src="data:{kind};base64,{payload}"></audio>'
-    blob = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
-    safe_title = title.replace("&", "&amp;").replace("<", "&lt;")
-    return _PAGE.replace("__TITLE__", safe_title).replace("__AUDIO__", audio).replace("__DATA__", blob)
+        audio = f'<audio id="music" preload="auto" src="data:{html.escape(kind)};base64,{payload}"></audio>'
+    try:
+        blob = script_json(data)
+    except ValueError as exc:  # a non-finite number computed from finite positions (a degenerate framing)
+        raise DataError(f"{source}: cannot preview this motion ({exc}); nothing written") from None
+    return fill_page(_PAGE, {"TITLE": html.escape(str(title), quote=True), "AUDIO": audio, "DATA": blob})
 
 
 def write_html(path: str | Path, positions: np.ndarray, parents: list[int], names: list[str], fps: float,
                music: str | Path | None = None, title: str = "dance") -> int:
     """Write the player atomically; returns the frame count."""
-    write_text(path, player_html(positions, parents, names, fps, music, title))
+    write_text(path, player_html(positions, parents, names, fps, music, title, source=path))
     return len(positions)

@@ -6,6 +6,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from dance_core.atomic import target_of
 from dance_core.errors import DataError
 from dance_core.motion.motion import Motion
 from dance_core.protocols import MotionData
@@ -24,7 +25,7 @@ def render(motion: Motion, path: str | Path, music: str | Path | None = None, wi
     suffix = path.suffix.lower()
     if suffix not in SUFFIXES:
         raise DataError(f"{path}: cannot render {suffix or 'a file without suffix'!r}; use {', '.join(SUFFIXES)}")
-    title = path.stem if title is None else title
+    title = target_of(path).stem if title is None else title  # the output's name, never a temporary one
     skel = motion.skeleton
     if suffix == ".html":
         from dance_core.render.html import write_html

@@ -6,18 +6,20 @@ import contextlib
 
 from dance_core import distributed
 from dance_core.recipe.schema import Recipe
-from dance_core.train.run_folder import run_dir_for, run_lock
+from dance_core.train.run_folder import refuse_existing_run, run_dir_for, run_lock
 from dance_core.train.stages import check_stop_at
 from dance_core.train.trainer import Trainer, TrainResult
 
 
 def train(
-    recipe: Recipe, out: str | None = None, resume: bool = False, quiet: bool = False, stop_at: int | None = None
+    recipe: Recipe, out: str | None = None, resume: bool = False, quiet: bool = False, stop_at: int | None = None,
+    overwrite: bool = False,
 ) -> TrainResult:
     """Train a recipe's model; the run folder holds checkpoint, state, log and resolved recipe.
 
     ``stop_at`` (a step in ``1..training.steps``) and the run folder's lock are checked before any
-    data is read; a folder this call created is removed again if the run fails before writing to it.
+    data is read; so is a run already in the folder, which only ``resume`` (continue it) or ``overwrite``
+    (replace it) may touch. A folder this call created is removed again if the run fails before writing to it.
     Started by torchrun (``RANK``/``WORLD_SIZE`` set), it joins the process group for the run and
     trains on every rank (``dance_core.distributed``); rank 0 alone locks and writes the run folder.
     """
@@ -32,6 +34,8 @@ def train(
             with contextlib.ExitStack() as stack:
                 try:
                     stack.enter_context(run_lock(run_dir))
+                    if not resume and not overwrite:
+                        refuse_existing_run(run_dir)
                 except BaseException as exc:
                     distributed.share_outcome(exc)
                     raise

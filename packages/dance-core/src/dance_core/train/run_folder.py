@@ -19,7 +19,16 @@ from typing import Any
 
 import yaml
 
-from dance_core.atomic import OutputSet, pid_alive, sigterm_as_interrupt, sweep_stale_temps, write_text
+from dance_core.atomic import (
+    OutputSet,
+    output_mode,
+    pid_alive,
+    refuse_special,
+    sigterm_as_interrupt,
+    special_file,
+    sweep_stale_temps,
+    write_text,
+)
 from dance_core.checkpoint import (
     Checkpoint,
     check_matches,
@@ -46,6 +55,16 @@ def run_dir_for(recipe: Recipe, out: str | None = None) -> Path:
     return Path(out or recipe.training.output.replace("{name}", recipe.name))
 
 
+def refuse_existing_run(run_dir: str | Path, option: str = "--out") -> None:
+    """One line when ``run_dir`` holds a run already (its checkpoint or training state): a new run
+    never replaces one without ``--overwrite`` (``--resume`` continues it)."""
+    run_dir = Path(run_dir)
+    held = [name for name in (MODEL_FILE, STATE_FILE) if os.path.lexists(run_dir / name)]
+    if held:
+        raise DanceError(f"{option} {run_dir}: holds a training run already ({', '.join(held)}); --resume to "
+                         "continue it, --overwrite to replace it, or train into another folder")
+
+
 def run_id(recipe: Recipe) -> str:
     """The id a new run records in its checkpoints: a digest of the resolved recipe it starts from
     (no clock, no path), so that the same run gives the same bytes and a state from another run is told apart."""
@@ -53,19 +72,32 @@ def run_id(recipe: Recipe) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
 
 
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
+
+
 def _lock_holder(path: Path) -> int | None:
-    try:
-        text = path.read_text(encoding="utf-8").strip()
-    except (FileNotFoundError, UnicodeDecodeError):
+    try:  # never through a link: a lock is a regular file this folder holds
+        fd = os.open(path, os.O_RDONLY | _NOFOLLOW)
+    except OSError:
         return None
-    return int(text) if text.isdigit() else None
+    with os.fdopen(fd, "rb") as fh:
+        text = fh.read(64).decode("utf-8", "replace").strip()
+    return int(text) if text.isdigit() and len(text) < 20 else None
+
+
+def _refuse_foreign_lock(path: Path) -> None:
+    what = special_file(path)
+    if what is not None:
+        raise DanceError(f"{path}: is {what}, not a lock dance made; it is left alone (remove it yourself "
+                         "if it is stale, or train into another folder with --out)")
 
 
 def _take_lock(path: Path) -> None:
     for _ in range(3):
         try:
-            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _NOFOLLOW, 0o644)
         except FileExistsError:
+            _refuse_foreign_lock(path)
             holder = _lock_holder(path)
             if holder is None:
                 try:
@@ -83,6 +115,7 @@ def _take_lock(path: Path) -> None:
             if _lock_holder(path) != holder:  # another trainer took it over meanwhile: look again
                 continue
             who = f"pid {holder}, no longer running" if holder is not None else "no pid"
+            _refuse_foreign_lock(path)
             warn(f"{path}: taking over a stale lock ({who})")
             path.unlink(missing_ok=True)
             continue
@@ -103,7 +136,7 @@ def run_lock(run_dir: str | Path) -> Iterator[Path]:
     if run_dir.exists() and not run_dir.is_dir():
         raise DataError(f"{run_dir}: is a file, not a run folder")
     run_dir.mkdir(parents=True, exist_ok=True)
-    path = (run_dir / LOCK_FILE).resolve()
+    path = run_dir.resolve() / LOCK_FILE  # the folder resolved, never the lock itself (a link is refused)
     if path in _held_locks:
         yield path
         return
@@ -162,7 +195,9 @@ class RunFolder:
         """Append one record to the log."""
         if not self.writes:
             return
-        with open(self.log_file, "a", encoding="utf-8") as fh:
+        refuse_special(self.log_file)  # appended to in place: never through a link or into a device
+        fd = os.open(self.log_file, os.O_WRONLY | os.O_APPEND | os.O_CREAT | _NOFOLLOW, output_mode())
+        with os.fdopen(fd, "a", encoding="utf-8") as fh:
             fh.write(json.dumps(record) + "\n")
 
     @property
