@@ -32,6 +32,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("evaluation", ("evaluation",)),
     ("loops", ("model", "checkpoint", "warm_start", "distributed", "train", "compose", "likelihood")),
     ("face", ("", "api", "testing", "pytest_plugin")),
+    ("live", ("live",)),
     ("cli", ("cli",)),
     ("defaults", ("defaults",)),
 )

@@ -122,6 +122,14 @@ class BeatFeatures:
         """Two one-hots and two (sin, cos) phase pairs."""
         return 6
 
+    def streaming(self, fps: float, rate: int):
+        """The same columns live (``dance live``): :class:`.online_beats.OnlineBeats`, the flux tracker's
+        forward pass, whichever tracker is configured (the columns mean the same; madmom's network and
+        librosa's dynamic program need the whole song)."""
+        from .online_beats import OnlineBeats
+
+        return OnlineBeats(fps, rate, self.beats_per_bar, self.min_bpm, self.max_bpm)
+
     def extract(self, inputs: FeatureInputs, fps: float) -> np.ndarray:
         """``(n_frames, 6)`` float32; each beat marks the frame nearest its time."""
         if inputs.audio is None:

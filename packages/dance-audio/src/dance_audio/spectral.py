@@ -20,6 +20,8 @@ from .threads import one_blas_thread
 from .timing import resample
 
 AMIN = 1e-10
+#: seconds added to half a window for the look-ahead ``dance live`` waits for (a resampler's edge)
+LIVE_MARGIN = 0.01
 _log_mels = LastAudioMemo()
 
 
@@ -96,6 +98,8 @@ class MelFeatures:
     def __init__(self, n_mels: int, rate: int, n_fft: int, fmin: float, fmax: float | None, reference: str):
         self.n_mels, self.rate, self.n_fft = n_mels, rate, n_fft
         self.fmin, self.fmax, self.reference = fmin, fmax, reference
+        #: seconds of audio past a frame's time its window reads (``dance live`` waits for them)
+        self.lookahead = n_fft / 2 / rate + LIVE_MARGIN
 
     def dim(self) -> int:
         """The number of mel bands."""
@@ -116,6 +120,8 @@ class OnsetFeatures:
 
     def __init__(self, n_mels: int, rate: int, n_fft: int):
         self.n_mels, self.rate, self.n_fft = n_mels, rate, n_fft
+        #: seconds of audio past a frame's time its window reads (``dance live`` waits for them)
+        self.lookahead = n_fft / 2 / rate + LIVE_MARGIN
 
     def dim(self) -> int:
         """One onset-strength value per frame."""

@@ -36,6 +36,7 @@ DEFAULT_PLUGINS: dict[str, str] = {
     "dance-core.synth": "dance_core.defaults.synth",
     "dance-core.evaluation": "dance_core.defaults.evaluation",
     "dance-core.authoring": "dance_core.defaults.authoring",
+    "dance-core.live": "dance_core.defaults.live",
 }
 
 

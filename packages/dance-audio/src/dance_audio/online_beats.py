@@ -1,0 +1,242 @@
+"""The ``beats`` extractor live: :mod:`.flux_beats`' tracker run causally, frame by frame, as audio arrives.
+
+Offline, the flux tracker sees the whole song: the onset envelope in dB below the song's loudest band,
+the activation over a centred 0.5-s mean and 4-s maximum, and Viterbi over the whole bar-pointer
+model. Live, each of these uses only what has been heard:
+
+* the same SuperFlux envelope at :data:`.flux_beats.FPS`, in dB below the loudest band heard so far;
+* the activation over the mean of the last 0.5 s and the maximum of the last 4 s (no crop);
+* the **forward pass** of the same beat-only bar-pointer HMM (:func:`.dbn.bar_model`, the same tempo
+  transitions and log-normal tempo prior): per frame the filtered state probabilities, normalised;
+  the most probable state gives the tempo and the beat phase, and a beat is marked when that phase
+  wraps (so tempo changes are followed from beat to beat, as offline);
+* bars as offline (:func:`.beats.bar_positions`): the beat phase modulo the longest bar whose beats
+  carry the most onset energy, from running sums over the beats heard.
+
+The columns are those of :class:`.beats.BeatFeatures`. A beat is marked on the first frame at or after
+its time (offline: the nearest frame). Look-ahead: half the tracker's 1024-sample window (23 ms) plus,
+when the input is not at 22.05 kHz, the streaming resampler's delay.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from .flux_beats import (
+    FLOOR,
+    FLOOR_DB,
+    FMAX,
+    FMIN,
+    FPS,
+    HOP,
+    LAG,
+    LOW_BANDS,
+    LOW_WEIGHT,
+    MEAN_SECONDS,
+    N_FFT,
+    N_MELS,
+    NUM_TEMPI,
+    OBSERVATION_LAMBDA,
+    PEAK,
+    RATE,
+    SCALE_SECONDS,
+    SPREAD,
+    TRANSITION_LAMBDA,
+    prior_transitions,
+)
+
+
+class OnlineEnvelope:
+    """The SuperFlux onset envelope of :func:`.flux_beats.onset_envelope`, one frame at a time, in dB
+    below the loudest mel band value heard so far."""
+
+    def __init__(self) -> None:
+        from .spectral import mel_filterbank
+
+        self.bank = mel_filterbank(RATE, N_FFT, N_MELS, FMIN, FMAX).T
+        self.top = 0.0
+        self.past: deque[np.ndarray] = deque(maxlen=LAG)  # the reference spectra of the last LAG frames
+
+    def frames(self, spectra: np.ndarray) -> np.ndarray:
+        """Envelope values of consecutive magnitude spectra ``(k, n_fft // 2 + 1)``."""
+        mel = spectra @ self.bank
+        out = np.zeros(len(mel))
+        for t, row in enumerate(mel):
+            self.top = max(self.top, float(row.max()))
+            if not self.top > 0:
+                db = np.full(N_MELS, FLOOR_DB)
+            else:
+                db = 20.0 * np.log10(np.maximum(row / self.top, 10.0 ** (FLOOR_DB / 20.0)))
+            reference = db.copy()
+            for shift in range(1, SPREAD // 2 + 1):
+                np.maximum(reference[shift:], db[:-shift], out=reference[shift:])
+                np.maximum(reference[:-shift], db[shift:], out=reference[:-shift])
+            if len(self.past) == LAG:
+                rise = np.maximum(0.0, db - self.past[0])
+                out[t] = rise.mean() + LOW_WEIGHT * rise[:LOW_BANDS].mean()
+            self.past.append(reference)
+        return out
+
+
+class OnlineActivation:
+    """Beat probabilities from envelope values: the rise over the mean of the last 0.5 s, over the
+    maximum of the last 4 s, mapped between the floor and the peak of :mod:`.flux_beats`."""
+
+    def __init__(self) -> None:
+        self.recent: deque[float] = deque(maxlen=max(1, int(MEAN_SECONDS * FPS)))
+        self.rises: deque[float] = deque(maxlen=max(1, int(SCALE_SECONDS * FPS)))
+        self.top = 0.0
+
+    def __call__(self, env: float) -> float:
+        """The activation of the next envelope value."""
+        self.recent.append(env)
+        rise = max(0.0, env - float(np.mean(self.recent)))
+        self.rises.append(rise)
+        self.top = max(self.top, rise)
+        if not self.top > 0:
+            return FLOOR
+        scale = max(max(self.rises), 0.05 * self.top)
+        return FLOOR + (PEAK - FLOOR) * min(max(rise / scale, 0.0), 1.0)
+
+
+class ForwardBarPointer:
+    """The forward (filtering) pass of the beat-only bar-pointer HMM that :func:`.flux_beats.decode_beats`
+    decodes by Viterbi: states are (tempo, frame within the beat); ``step(p)`` takes one frame's beat
+    activation and returns the most probable state's ``(beat phase in [0, 1), beat period in frames)``."""
+
+    def __init__(self, min_bpm: float, max_bpm: float, fps: float = FPS) -> None:
+        from .dbn import bar_model
+
+        model = bar_model(1, 60.0 * fps / max_bpm, 60.0 * fps / min_bpm, NUM_TEMPI, TRANSITION_LAMBDA,
+                          float(OBSERVATION_LAMBDA))
+        log_trans, periods = prior_transitions(model.log_trans, model.periods, fps)
+        self.periods = np.asarray(periods, dtype=np.int64)
+        self.starts = np.concatenate(([0], np.cumsum(self.periods)[:-1]))
+        self.ends = self.starts + self.periods - 1
+        log_trans = log_trans - log_trans.max()
+        self.trans = np.exp(log_trans)  # [j, i]: from the end of chain j into the start of chain i
+        n = int(self.periods.sum())
+        self.chain = np.repeat(np.arange(len(self.periods)), self.periods)
+        self.position = np.arange(n) - self.starts[self.chain]
+        self.on_beat = self.position < np.asarray(model.on_beat[0])[self.chain]
+        self.alpha = np.full(n, 1.0 / n)
+
+    def step(self, p: float) -> tuple[float, int]:
+        """Advance one frame with beat activation ``p``."""
+        alpha = self.alpha
+        new = np.empty_like(alpha)
+        new[1:] = alpha[:-1]
+        new[self.starts] = alpha[self.ends] @ self.trans
+        new *= np.where(self.on_beat, p, (1.0 - p) / (OBSERVATION_LAMBDA - 1))
+        total = new.sum()
+        self.alpha = new / total if total > 0 else np.full_like(new, 1.0 / len(new))
+        best = int(np.argmax(self.alpha))
+        period = int(self.periods[self.chain[best]])
+        return float(self.position[best]) / period, period
+
+
+class OnlineBeats:
+    """The ``beats`` columns of an audio stream at ``fps``: ``push(samples)`` returns the frames it
+    completes ``(k, 6)``, ``finish(n_frames)`` the rest up to ``n_frames`` (the audio padded with
+    silence, as offline frames past the end are)."""
+
+    def __init__(self, fps: float, rate: int, beats_per_bar: list[int], min_bpm: float, max_bpm: float) -> None:
+        from .stft import periodic_hann
+
+        self.fps, self.rate = float(fps), int(rate)
+        self.bar = max(beats_per_bar)
+        self.resampler = None
+        if self.rate != RATE:
+            import soxr
+
+            self.resampler = soxr.ResampleStream(self.rate, RATE, 1, dtype="float32", quality="HQ")
+        self.window = periodic_hann(N_FFT)
+        self.y = np.zeros(N_FFT // 2, np.float32)  # the audio at RATE from sample y_start - N_FFT // 2
+        self.y_start = 0
+        self.envelope, self.activation = OnlineEnvelope(), OnlineActivation()
+        self.hmm = ForwardBarPointer(min_bpm, max_bpm)
+        self.tracker_frames = 0  # tracker frames done
+        self.frames = 0  # output frames done
+        self.phase, self.beats, self.last_phase = 0.0, 0, 0.0
+        self.strength = np.zeros(self.bar)
+        self.counts = np.zeros(self.bar)
+        self.recent_env: deque[float] = deque(maxlen=5)
+        self.pending_beat = self.pending_downbeat = False
+        #: seconds of audio past a frame's time needed before the frame is known (resampler delay not included)
+        self.lookahead = (N_FFT // 2) / RATE
+
+    def dim(self) -> int:
+        """Six columns, as the offline extractor."""
+        return 6
+
+    def push(self, samples: np.ndarray) -> np.ndarray:
+        """Frames completed by the next block of mono float samples at the stream's rate."""
+        samples = np.asarray(samples, np.float32)
+        if self.resampler is not None:
+            samples = self.resampler.resample_chunk(samples, last=False)
+        return self._feed(samples, None)
+
+    def finish(self, n_frames: int) -> np.ndarray:
+        """The remaining frames up to ``n_frames``, the audio after the end taken as silence."""
+        tail = np.zeros(0, np.float32)
+        if self.resampler is not None:
+            tail = self.resampler.resample_chunk(np.zeros(0, np.float32), last=True)
+        return self._feed(tail, n_frames)
+
+    def _feed(self, samples: np.ndarray, n_frames: int | None) -> np.ndarray:
+        self.y = np.concatenate([self.y, samples.astype(np.float32)])
+        have = self.y_start + len(self.y) - N_FFT // 2  # samples at RATE received
+        if n_frames is None:  # a tracker frame centred at f * HOP needs samples up to f * HOP + N_FFT // 2
+            last = (have - N_FFT // 2) // HOP
+        else:
+            last = int(np.ceil((n_frames - 1) / self.fps * FPS)) + 1
+            self.y = np.concatenate([self.y, np.zeros(max(0, (last + 1) * HOP + N_FFT - len(self.y)), np.float32)])
+        rows = []
+        for f in range(self.tracker_frames, last + 1):
+            lo = f * HOP - self.y_start  # index into y of the frame's first sample (y holds N_FFT // 2 before)
+            frame = self.y[lo : lo + N_FFT]
+            spectrum = np.abs(np.fft.rfft(frame * self.window))[None, :]
+            env = float(self.envelope.frames(spectrum)[0])
+            self._track(env)
+            self.tracker_frames = f + 1
+            time = f / FPS
+            while self.frames / self.fps <= time and (n_frames is None or self.frames < n_frames):
+                rows.append(self._row())
+                self.frames += 1
+        keep = max(0, self.tracker_frames * HOP - self.y_start)
+        self.y, self.y_start = self.y[keep:], self.y_start + keep
+        if n_frames is not None:
+            while self.frames < n_frames:
+                rows.append(self._row())
+                self.frames += 1
+        return np.array(rows, np.float32).reshape(-1, 6)
+
+    def _track(self, env: float) -> None:
+        self.recent_env.append(env)
+        phase, _ = self.hmm.step(self.activation(env))
+        if phase < self.last_phase - 0.5:  # the most probable state entered a new beat
+            k = self.beats % self.bar
+            self.strength[k] += max(self.recent_env)
+            self.counts[k] += 1
+            self.beats += 1
+            self.pending_beat = True
+            self.pending_downbeat = self._position() == 1
+        self.last_phase, self.phase = phase, phase
+
+    def _position(self) -> int:
+        """The current beat's position in its bar, 1..bar (1 = downbeat)."""
+        if self.beats == 0:
+            return 1
+        means = np.where(self.counts > 0, self.strength / np.maximum(self.counts, 1), 0.0)
+        offset = int(np.argmax(means))
+        return (self.beats - 1 - offset) % self.bar + 1
+
+    def _row(self) -> list[float]:
+        beat_phase = 2 * np.pi * self.phase
+        bar_phase = 2 * np.pi * ((self._position() - 1 + self.phase) / self.bar)
+        row = [float(self.pending_beat), float(self.pending_beat and self.pending_downbeat),
+               np.sin(beat_phase), np.cos(beat_phase), np.sin(bar_phase), np.cos(bar_phase)]
+        self.pending_beat = self.pending_downbeat = False
+        return row

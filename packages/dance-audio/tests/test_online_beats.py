@@ -1,0 +1,47 @@
+"""The beats extractor live: the flux tracker's forward pass against its offline Viterbi decoding."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dance_audio.beats import BeatFeatures, track_beats
+from dance_audio.online_beats import OnlineBeats
+
+
+def _stream(audio, seconds: float, fps: float = 20.0, block: int = 512) -> np.ndarray:
+    y = audio.samples[: int(seconds * audio.rate)]
+    live = OnlineBeats(fps, audio.rate, [3, 4], 55.0, 160.0)
+    rows = [live.push(y[lo : lo + block]) for lo in range(0, len(y), block)]
+    rows.append(live.finish(int(np.ceil(len(y) / audio.rate * fps))))
+    return np.concatenate(rows)
+
+
+def test_online_beats_follow_the_offline_tracker(audio_dir, registry, make_clicks):
+    from dance_core.data.features import load_audio
+
+    audio = load_audio(audio_dir / "vibe_ace.ogg", registry)
+    cols = _stream(audio, 40.0)
+    assert cols.shape == (800, 6) and np.all(np.isfinite(cols))
+    online = np.flatnonzero(cols[:, 0]) / 20.0
+    offline = track_beats(audio.__class__(audio.samples[: 40 * audio.rate], audio.rate)).times
+    after = offline[offline > 5.0]  # locked within 5 s: most offline beats have a live beat within 70 ms
+    hits = sum(np.min(np.abs(online - t)) <= 0.07 for t in after)
+    assert hits >= 0.85 * len(after)
+    assert abs(np.median(np.diff(online[online > 5])) / np.median(np.diff(after)) - 1) < 0.05
+    # downbeats are beats, phases are unit circles
+    assert np.all(cols[cols[:, 1] > 0, 0] == 1)
+    assert np.allclose(cols[:, 2] ** 2 + cols[:, 3] ** 2, 1, atol=1e-5)
+
+
+def test_online_beats_follow_a_tempo_change(make_clicks):
+    times = np.r_[np.arange(0.5, 15.0, 0.5), np.arange(15.0, 30.0, 0.4)]  # 120 then 150 BPM
+    audio = make_clicks(times, 30.0)
+    online = np.flatnonzero(_stream(audio, 30.0, fps=100.0)[:, 0]) / 100.0
+    early = np.diff(online[(online > 5) & (online < 14.5)])
+    late = np.diff(online[online > 20])
+    assert abs(np.median(early) - 0.5) < 0.03 and abs(np.median(late) - 0.4) < 0.03
+
+
+def test_streaming_is_offered_by_the_extractor():
+    live = BeatFeatures("flux", [3, 4], 55.0, 160.0).streaming(20.0, 44100)
+    assert live.dim() == 6 and 0 < live.lookahead < 0.05

@@ -1,0 +1,181 @@
+"""A live session: audio in from a source, features and beats as it arrives, the model stepping in its own
+thread, poses out to every sink; latency and drops measured.
+
+Threads: the caller's thread reads the source and computes features (cheap; it never waits for the
+model, so audio is never dropped); the generation thread steps the model on the frames whose music is
+known; each sink writes from its own thread. When generation falls more than ``max_lag`` seconds
+behind the music it may step on, it drops frames (holding the last pose) and counts them.
+
+**Latency** of a frame: from the arrival of the audio block that completed the newest music frame it
+reads (so the first frame that can react to those samples) to the frame handed to the sinks. Samples
+earlier in the same frame hop wait up to one hop more (50 ms at 20 fps). The frame for music time
+``t`` needs the audio up to ``t + music_delay`` (the model's ``cond_future`` frames and the features'
+look-ahead), so a figure shown with the music lags it by that much unless the audio is delayed too.
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from dance_core.errors import DanceError
+from dance_core.live.features import LiveFeatures
+from dance_core.live.generator import LiveGenerator
+from dance_core.live.pose import Pose, PoseDecoder
+
+#: seconds generation may fall behind the music it could step on before it drops frames
+MAX_LAG = 0.25
+
+
+@dataclass
+class LiveStats:
+    """What a session measured."""
+
+    frames: int = 0
+    dropped: int = 0
+    latencies: list[float] = field(default_factory=list)
+    music_seconds: float = 0.0
+    wall_seconds: float = 0.0
+    stopped: str = "end of input"
+
+    def summary(self, extra: dict[str, Any]) -> dict[str, Any]:
+        """A JSON-able report: frames, drops, the latency distribution in ms."""
+        lat = np.asarray(self.latencies) * 1000.0
+        dist = ({k: round(float(np.percentile(lat, q)), 2) for k, q in (("p50", 50), ("p95", 95), ("p99", 99))}
+                | {"max": round(float(lat.max()), 2), "mean": round(float(lat.mean()), 2)}) if len(lat) else {}
+        return {"frames": self.frames, "dropped_frames": self.dropped, "music_seconds": round(self.music_seconds, 3),
+                "wall_seconds": round(self.wall_seconds, 3), "stopped": self.stopped, "latency_ms": dist, **extra}
+
+
+def frame_message(index: int, fps: float, pose: Pose) -> dict:
+    """A frame as sinks send it: ``t`` (music time, s), root position, rotations (xyzw), positions (m)."""
+    out = {"t": round(index / fps, 4), "frame": index, "root": np.round(pose.root, 5).tolist()}
+    if pose.rotations is not None:
+        out["rotations"] = np.round(pose.rotations, 5).tolist()
+    out["positions"] = np.round(pose.positions, 5).tolist()
+    return out
+
+
+class LiveSession:
+    """One run of ``dance live``: ``run()`` plays the source to its end (or Ctrl-C, or every sink's
+    consumer gone) and returns the summary."""
+
+    def __init__(self, composer, source, sinks: list, seed_motion: str | None = None, max_lag: float = MAX_LAG):
+        from dance_core.runtime import generation_threads
+
+        self.composer, self.source, self.sinks = composer, source, sinks
+        recipe = composer.recipe
+        self.fps = recipe.fps
+        self.features = LiveFeatures(composer.stack, composer.checkpoint, source.rate)
+        self.generator = LiveGenerator(composer.model, recipe, composer.seed(seed_motion), composer.device)
+        self.decoder = PoseDecoder(composer.checkpoint, composer.registry, self.fps)
+        self.threads = generation_threads(composer.model, 1, composer.device, recipe.compose.threads)
+        self.max_lag = max(1, int(round(max_lag * self.fps)))
+        self.stats = LiveStats()
+        self.inbox: queue.Queue = queue.Queue()
+        self.arrivals: list[float] = []  # per music frame, when the audio completing it arrived
+        self.error: BaseException | None = None
+        self.stop = threading.Event()
+
+    def run(self) -> dict[str, Any]:
+        """Play the source through; the summary (``stopped`` says why it ended)."""
+        for sink in self.sinks:
+            sink.start(self.decoder.skeleton_json())
+        worker = threading.Thread(target=self._generate, name="live-generate", daemon=True)
+        begin = time.perf_counter()
+        worker.start()
+        failure: BaseException | None = None
+        try:
+            samples = 0
+            for block in self.source.blocks():
+                arrived = time.perf_counter()
+                samples += len(block)
+                self.inbox.put((self.features.push(block), arrived))
+                if self.stop.is_set():
+                    break
+                if self.sinks and all(s.closed.is_set() for s in self.sinks):
+                    self.stats.stopped = "every output closed"
+                    break
+            else:
+                self.inbox.put((self.features.finish(), time.perf_counter()))
+            self.stats.music_seconds = samples / self.source.rate
+        except KeyboardInterrupt:
+            self.stats.stopped = "interrupted"
+        except DanceError as exc:
+            failure = exc
+            self.stats.stopped = "input error"
+        finally:
+            self.source.close()
+            self.inbox.put(None)
+            try:
+                worker.join()
+            except KeyboardInterrupt:
+                self.stop.set()
+                worker.join()
+                self.stats.stopped = "interrupted"
+            for sink in self.sinks:
+                sink.close()
+            self.stats.wall_seconds = time.perf_counter() - begin
+        if self.error is not None:
+            raise self.error
+        if failure is not None:
+            raise failure
+        return self.summary()
+
+    def summary(self) -> dict[str, Any]:
+        """The report of the session so far."""
+        w = self.composer.model.window
+        return self.stats.summary({
+            "fps": self.fps, "input": self.source.name, "rate": self.source.rate,
+            "lookahead_s": {"features": round(self.features.lookahead, 4), "model": round(w.cond_future / self.fps, 4)},
+            "music_delay_s": round(self.features.lookahead + w.cond_future / self.fps, 4),
+            "threads": self.threads, "outputs": {s.name: s.stats() for s in self.sinks},
+        })
+
+    def _generate(self) -> None:
+        """The generation thread: take feature frames, step the model, hand poses to the sinks."""
+        import torch
+
+        torch.set_num_threads(self.threads)
+        gen, ended = self.generator, False
+        try:
+            while not self.stop.is_set():
+                item = self.inbox.get()
+                while item is not None:
+                    streams, arrived = item
+                    k = len(next(iter(streams.values()))) if streams else 0
+                    self.arrivals += [arrived] * k
+                    gen.add(streams)
+                    try:
+                        item = self.inbox.get_nowait()
+                    except queue.Empty:
+                        break
+                if item is None:
+                    ended = True
+                    gen.end()
+                behind = gen.ready()
+                if not ended and behind > self.max_lag:
+                    gen.skip(behind - 1)
+                    self.stats.dropped += behind - 1
+                while gen.ready() > 0 and not self.stop.is_set():
+                    first = gen.t
+                    for offset, frame in enumerate(gen.step()):
+                        self._emit(first + offset, frame)
+                if ended:
+                    return
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
+            self.error = exc
+            self.stop.set()
+
+    def _emit(self, index: int, frame: np.ndarray) -> None:
+        message = frame_message(index, self.fps, self.decoder(frame))
+        for sink in self.sinks:
+            sink.send(message)
+        newest = min(index + self.composer.model.window.cond_future - 1, len(self.arrivals) - 1)
+        self.stats.latencies.append(time.perf_counter() - self.arrivals[newest])
+        self.stats.frames += 1

@@ -1,0 +1,175 @@
+"""dance live with the bundled model: live features, generation and poses equal offline where they should,
+a song piped in at real time comes out covering the song, bad input ends with one line."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+AUDIO = Path(__file__).resolve().parents[3].parent / "shared" / "fixtures" / "audio"
+DANCE = [sys.executable, "-m", "dance_core.cli.main"]
+
+
+@pytest.fixture(scope="module")
+def composer():
+    from dance_core.api import Composer
+    from dance_core.recipe import load_recipe
+
+    return Composer(load_recipe("default"))
+
+
+def _pcm(seconds: float | None = None) -> bytes:
+    """sample.wav as raw s16le mono PCM at 22050 Hz."""
+    from dance_audio.timing import resample
+    from dance_core.data.features import load_audio
+    from dance_core.registry import get_registry
+
+    audio = load_audio(AUDIO / "sample.wav", get_registry())
+    y = resample(audio.samples, audio.rate, 22050)
+    return (np.clip(y, -1, 1) * 32767).astype("<i2").tobytes()
+
+
+def test_live_features_equal_offline_and_generation_and_poses_too(composer):
+    from dance_core.live.features import LiveFeatures
+    from dance_core.live.generator import LiveGenerator
+    from dance_core.live.pose import PoseDecoder
+
+    song = composer.song(AUDIO / "sample.wav")
+    audio = __import__("dance_core.data.features", fromlist=["load_audio"]).load_audio(
+        AUDIO / "sample.wav", composer.registry)
+    live = LiveFeatures(composer.stack, composer.checkpoint, audio.rate)
+    parts = [live.push(audio.samples[lo : lo + 700]) for lo in range(0, len(audio.samples), 700)] + [live.finish()]
+    music = np.concatenate([p["music"] for p in parts])
+    assert music.shape == song.streams["music"].shape
+    assert np.abs(music - song.streams["music"]).max() < 1e-4  # log-mel and onset: the offline maths
+    assert 0.04 < live.lookahead < 0.1
+    # the model fed the offline features frame by frame gives compose's frames exactly
+    offline = composer.generate(song)[0]
+    gen, frames = LiveGenerator(composer.model, composer.recipe, composer.seed(), composer.device), []
+    for i in range(song.n_frames):
+        gen.add({n: v[i : i + 1] for n, v in song.streams.items()})
+        assert gen.ready() <= max(0, i + 2 - composer.model.window.cond_future - len(frames))
+        while gen.ready():
+            frames.append(gen.step())
+    gen.end()
+    while gen.ready():
+        frames.append(gen.step())
+    assert np.array_equal(np.concatenate(frames), offline)
+    decoder = PoseDecoder(composer.checkpoint, composer.registry, composer.recipe.fps)
+    poses = [decoder(f) for f in offline]
+    info = composer.checkpoint.motion  # the offline decoding of the whole dance, before grounding
+    whole = info.decode(composer.checkpoint.stats.motion.invert(offline), composer.recipe.fps,
+                        composer.registry).skeleton_motion
+    assert np.abs(np.stack([p.positions for p in poses]) - whole.positions()).max() < 1e-6
+
+
+def _feed(proc, data: bytes, speed: float, stop_early: bool = False) -> None:
+    """Write PCM to the process at ``speed`` times real time (22050 Hz, 2 bytes a sample)."""
+    chunk = 2 * 1024
+    for lo in range(0, len(data), chunk):
+        proc.stdin.write(data[lo : lo + chunk])
+        proc.stdin.flush()
+        time.sleep(1024 / 22050 / speed)
+    if not stop_early:
+        proc.stdin.close()
+
+
+def _outputs(proc) -> tuple[bytes, bytes]:
+    """Standard output to its end, then standard error (the feeder writes standard input meanwhile)."""
+    out = proc.stdout.read()
+    err = proc.stderr.read()
+    proc.wait(timeout=300)
+    return out, err
+
+
+def _live(*args: str) -> subprocess.Popen:
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    return subprocess.Popen([*DANCE, "live", "default", *args], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, env=env)
+
+
+def test_pcm_piped_at_real_time_yields_frames_covering_the_song():
+    data = _pcm()
+    proc = _live("--input", "-", "--rate", "22050", "--output", "-", "--json", "--max-lag", "60")
+    threading.Thread(target=_feed, args=(proc, data, 8.0), daemon=True).start()
+    out, err = _outputs(proc)
+    assert proc.returncode == 0, err.decode()
+    lines = [json.loads(line) for line in out.decode().splitlines()]
+    skeleton, frames = lines[0]["skeleton"], lines[1:]
+    assert skeleton["joints"][0] == "Pelvis" and len(skeleton["parents"]) == len(skeleton["offsets"]) == 24
+    seconds = len(data) / 2 / 22050
+    assert [f["frame"] for f in frames] == list(range(int(np.ceil(seconds * 20))))
+    assert frames[0]["t"] == 0 and frames[-1]["t"] == pytest.approx(seconds, abs=0.05)
+    assert np.array(frames[-1]["positions"]).shape == (24, 3) and np.array(frames[-1]["rotations"]).shape == (24, 4)
+    summary = json.loads(err.decode()[err.decode().index("{"):])
+    assert summary["frames"] == len(frames) and summary["dropped_frames"] == 0
+    assert summary["latency_ms"]["p50"] > 0 and summary["music_delay_s"] == pytest.approx(0.5564, abs=1e-3)
+
+
+def test_an_audio_file_on_stdin_and_a_stream_that_stops_end_with_one_line_and_intact_output():
+    with open(AUDIO / "sample.wav", "rb") as f:
+        wav = f.read()
+    proc = _live("--input", "-", "--output", "-")
+    out, err = proc.communicate(wav, timeout=300)
+    assert proc.returncode == 1 and err.decode().count("\n") == 1
+    assert "the stream is a WAV file, not raw s16le mono PCM" in err.decode()
+    assert all(json.loads(line) for line in out.decode().splitlines())  # what was written is whole
+    data = _pcm()
+    proc = _live("--input", "-", "--output", "-", "--idle", "1", "--max-lag", "60")
+    _feed(proc, data[: len(data) // 2], 8.0, stop_early=True)
+    out, err = _outputs(proc)
+    proc.stdin.close()
+    assert proc.returncode == 1 and err.decode().strip().endswith("no audio for 1 s; the stream stopped")
+    lines = [json.loads(line) for line in out.decode().splitlines()]
+    assert "skeleton" in lines[0] and len(lines) > 5 and [f["frame"] for f in lines[1:]] == list(range(len(lines) - 1))
+
+
+def test_a_port_in_use_is_one_line_before_the_model_loads():
+    import socket
+
+    taken = socket.socket()
+    taken.bind(("127.0.0.1", 0))
+    try:
+        proc = _live("--input", str(AUDIO / "sample.wav"), "--output", f"ws://127.0.0.1:{taken.getsockname()[1]}")
+        out, err = proc.communicate(timeout=120)
+    finally:
+        taken.close()
+    assert proc.returncode == 1 and "cannot listen: the port is in use" in err.decode() and out == b""
+
+
+def test_osc_and_websocket_sinks_at_once(composer):
+    import socket
+
+    from dance_core.live.osc import OscSink, parse
+    from dance_core.live.session import LiveSession
+    from dance_core.live.sources import FileSource
+    from dance_core.live.websocket import WebSocketSink
+
+    listener = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    listener.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
+    listener.bind(("127.0.0.1", 0))
+    ws = WebSocketSink("127.0.0.1", 0)
+    sinks = [OscSink("127.0.0.1", listener.getsockname()[1]), ws]
+    source = FileSource(str(AUDIO / "sample.wav"), composer.registry, composer.recipe.format_options, speed=4.0)
+    summary = LiveSession(composer, source, sinks, max_lag=60).run()
+    packets = []
+    listener.setblocking(False)
+    while True:
+        try:
+            packets.append(parse(listener.recv(65536)))
+        except BlockingIOError:
+            break
+    listener.close()
+    assert summary["frames"] == 57 and summary["outputs"]["osc"]["sent"] == 57
+    assert 0 < len(packets) <= 57  # UDP on localhost may lose datagrams when the listener's buffer fills
+    bones = {args[0] for address, args in packets[-1] if address == "/VMC/Ext/Bone/Pos"}
+    assert {"Hips", "Head", "LeftHand", "RightFoot"} <= bones and len(bones) == 22
+    assert summary["outputs"]["ws"]["sent"] == 57 and summary["outputs"]["osc"]["dropped"] == 0
