@@ -17,12 +17,13 @@ needs_blender = pytest.mark.skipif(BLENDER is None, reason="needs Blender: `apt-
                                    "(make install does it when run as root)")
 
 
-def run_blender(path: Path, out: Path | None = None, timeout: int = 180) -> tuple[dict, str]:
-    """Blender's import of the BVH at ``path`` (bone heads and tails per frame, Z up, as JSON written to
-    ``out``) and its log."""
+def run_blender(path: Path, out: Path | None = None, timeout: int = 180, fps: float | None = None) -> tuple[dict, str]:
+    """Blender's import of the BVH (or glb, played at ``fps``) at ``path`` (bone heads and tails per frame,
+    Z up, as JSON written to ``out``) and its log."""
     out = out or path.with_suffix(".json")
+    rate = [] if fps is None else [str(fps)]
     run = subprocess.run([BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python",
-                          str(BLENDER_SCRIPT), "--", str(path), str(out)],
+                          str(BLENDER_SCRIPT), "--", str(path), str(out), *rate],
                          capture_output=True, text=True, timeout=timeout, check=False)
     assert run.returncode == 0 and out.is_file(), f"blender failed: {(run.stderr or run.stdout)[-2000:]}"
     return json.loads(out.read_text()), run.stdout

@@ -36,7 +36,8 @@ LAST = int(FPS * SECONDS) - 1
 class Chromium:
     """Headless Chromium with one page, spoken to over ``--remote-debugging-pipe`` (fds 3 and 4)."""
 
-    def __init__(self, profile, timeout: float = 60.0):
+    def __init__(self, profile, timeout: float = 60.0, resolve: str = "MAP * ~NOTFOUND"):
+        """``resolve``: the host resolver rules (by default no name resolves: the page is offline)."""
         to_browser, from_browser = os.pipe(), os.pipe()  # four fds: 3 and 4 are surely open here
 
         def place_pipes():  # in the child: its ends at 3 and 4 (dup2 onto another fd drops close-on-exec)
@@ -48,7 +49,7 @@ class Chromium:
         self.proc = subprocess.Popen(
             [BROWSER, "--headless", "--disable-gpu", "--no-sandbox", "--no-first-run", "--mute-audio",
              "--remote-debugging-pipe", f"--user-data-dir={profile}", "--disable-background-networking",
-             "--disable-component-update", "--host-resolver-rules=MAP * ~NOTFOUND", "--proxy-server=127.0.0.1:9",
+             "--disable-component-update", f"--host-resolver-rules={resolve}", "--proxy-server=127.0.0.1:9",
              "--autoplay-policy=no-user-gesture-required", f"--window-size={W + 100},{H + 300}", "about:blank"],
             pass_fds=(3, 4), preexec_fn=place_pipes, stdout=subprocess.DEVNULL, stderr=self.log)
         os.close(to_browser[0])

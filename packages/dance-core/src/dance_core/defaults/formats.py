@@ -1,4 +1,4 @@
-"""Core's file formats: WAV audio, and motion as NPZ, BVH, SMPL pickles, joint arrays, keypoints;
+"""Core's file formats: WAV audio, and motion as NPZ, BVH, glTF binary, SMPL pickles, joint arrays, keypoints;
 plus motion representations (skeletal motion to model features and back)."""
 
 from __future__ import annotations
@@ -24,6 +24,8 @@ def register_motion_formats(register):
              suffixes=(".npz",))
     register("bvh", fc.BvhFormatConfig, f"{_F}.bvh:build",
              "BVH mocap: any channel order, End Sites, continuous Euler", suffixes=(".bvh",))
+    register("glb", fc.GlbFormatConfig, f"{_F}.glb:build",
+             "glTF 2.0 binary: skeleton, skin, animation, a box body and markers (metres, Y up)", suffixes=(".glb",))
     register("smpl", fc.SmplFormatConfig, f"{_F}.smpl:build",
              "AIST++ SMPL pickles (smpl_poses, smpl_trans) on your SMPL model's joints (model, --smpl-model), "
              "restricted unpickler", suffixes=(".pkl",))

@@ -1,5 +1,5 @@
 """Core's previews: stick-figure GIF, MP4 and offline HTML player (write-only motion formats), and
-``dance render`` and ``dance retarget``."""
+``dance render``, ``dance retarget`` and ``dance convert``."""
 
 from __future__ import annotations
 
@@ -18,8 +18,10 @@ def register_motion_formats(register):
 
 @hookimpl
 def register_commands(subparsers):
-    """``dance render`` (a preview of a motion file) and ``dance retarget`` (a motion onto another rig)."""
-    from dance_core.cli import render, retarget
+    """``dance render`` (a preview of a motion file), ``dance retarget`` (a motion onto another rig) and
+    ``dance convert`` (a motion into another format, rig, frame rate or units)."""
+    from dance_core.cli import convert, render, retarget
 
     render.add_parser(subparsers)
     retarget.add_parser(subparsers)
+    convert.add_parser(subparsers)

@@ -32,6 +32,12 @@ class BvhFormatConfig(ComponentConfig):
         "floor read that way and not read absolute")
 
 
+class GlbFormatConfig(ComponentConfig):
+    """Whether a glb gets a simple skinned body (a box per bone) besides its skeleton."""
+
+    body: bool = Field(True, description="add a body of boxes bound to the bones, so the dance shows in a viewer")
+
+
 class SmplFormatConfig(ComponentConfig):
     """Frame rate of AIST++ pickles (they store none), the translation scale to metres, and the user's
     SMPL body model file that gives the joint positions."""
