@@ -4,7 +4,7 @@
   resolved once (``resolve_inputs`` -> ``ComposeInputs``) for the CLI and the loop alike;
 - ``songs``: a song's features and text spans, the seed motion, the model loaded from its checkpoint;
 - ``generate``: a song's dances, one song at a time or several in one batch;
-- ``output``: each song's output set, decoded, grounded and written;
+- ``output``: each song's output set, decoded, on the beat, grounded and written;
 - ``loop``: ``compose_songs`` / ``run_compose``, the loop over songs behind ``dance compose``.
 """
 
@@ -20,8 +20,8 @@ from dance_core.compose.inputs import (
     resolve_inputs,
 )
 from dance_core.compose.loop import Composed, compose, compose_songs, run_compose
-from dance_core.compose.output import complete, grounded, output_stems, output_targets, write_song
-from dance_core.compose.songs import Song, load_model, load_song, seed_motion, song_texts
+from dance_core.compose.output import complete, finished, output_stems, output_targets, write_song
+from dance_core.compose.songs import Song, beat_tracker_of, load_model, load_song, seed_motion, song_texts
 
 __all__ = [
     "ComposeInputs",
@@ -31,6 +31,7 @@ __all__ = [
     "Song",
     "audio_files",
     "batching_note",
+    "beat_tracker_of",
     "beside_recipe",
     "complete",
     "compose",
@@ -38,7 +39,7 @@ __all__ = [
     "expand_music",
     "generate_song",
     "generate_songs",
-    "grounded",
+    "finished",
     "load_model",
     "load_song",
     "output_stems",

@@ -15,8 +15,8 @@ import torch
 
 from dance_core.compose.generate import generate_song, generate_songs
 from dance_core.compose.inputs import beside_recipe
-from dance_core.compose.output import grounded, write_song
-from dance_core.compose.songs import Song, load_model, load_song, seed_motion
+from dance_core.compose.output import finished, write_song
+from dance_core.compose.songs import Song, beat_tracker_of, load_model, load_song, seed_motion
 from dance_core.errors import RecipeError
 from dance_core.protocols import MotionData
 from dance_core.recipe.schema import Recipe, TextSpec
@@ -50,9 +50,9 @@ class Composer:
 
     def song(self, path: str | Path, seconds: float | None = None, texts: list[TextSpec] | None = None) -> Song:
         """A song's standardized features (``seconds``, ``texts``: default the recipe's ``compose:`` values)."""
-        c = self.recipe.compose
+        c, tracker = self.recipe.compose, beat_tracker_of(self.recipe, self.registry)
         return load_song(str(path), self.stack, self.checkpoint, c.seconds if seconds is None else seconds,
-                         self.registry, c.texts if texts is None else texts)
+                         self.registry, c.texts if texts is None else texts, tracker)
 
     def generate(self, song: Song, seed: torch.Tensor | None = None, progress: Any = None) -> np.ndarray:
         """``compose.samples`` dances of one song ``(samples, frames, D)``, normalized, as ``dance compose``
@@ -68,14 +68,11 @@ class Composer:
     def dances(self, song: Song, motion: np.ndarray, ground: bool | None = None) -> list[MotionData]:
         """Each generated dance of a song decoded (de-normalized, skeletal motion attached) and, with
         ``ground`` (default ``compose.ground``), on the floor with its feet pinned, as written."""
-        ground = self.recipe.compose.ground if ground is None else ground
         info, out = self.checkpoint.motion, []
         for k in range(motion.shape[0]):
             data = info.decode(self.checkpoint.stats.motion.invert(motion[k, : song.n_frames]), self.recipe.fps,
                                self.registry)
-            if ground and data.skeleton_motion is not None:
-                data = grounded(data, info, self.registry)
-            out.append(data)
+            out.append(finished(data, song, info, self.registry, self.recipe, ground))
         return out
 
     def write(self, song: Song, motion: np.ndarray, out_dir: str | Path, stems: list[str] | None = None) -> list[Path]:

@@ -17,7 +17,7 @@ from dance_core.atomic import sweep_stale_temps
 from dance_core.compose.generate import batching_note, generate_song, generate_songs
 from dance_core.compose.inputs import ComposeInputs, ComposeOptions, reads_text, resolve_inputs
 from dance_core.compose.output import complete, manifest_path, output_stems, output_targets, write_song
-from dance_core.compose.songs import load_model, load_song, seed_motion
+from dance_core.compose.songs import beat_tracker_of, load_model, load_song, seed_motion
 from dance_core.errors import RecipeError
 from dance_core.progress import progress_bar
 from dance_core.recipe.schema import Recipe
@@ -109,6 +109,7 @@ def run_compose(inputs: ComposeInputs) -> Composed:
     start = model.start_frames()
     seed_values = seed_motion(inputs.seed_motion, ckpt, start, registry, recipe.format_options)
     seed = torch.from_numpy(seed_values)
+    tracker = beat_tracker_of(recipe, registry)
     per_batch = c.batch_songs
     note = batching_note(model) if per_batch > 1 and len(todo) > 1 else None
     if note:
@@ -120,7 +121,7 @@ def run_compose(inputs: ComposeInputs) -> Composed:
         task = bar.add_task("compose", total=len(todo), info=f"{len(todo)} song(s) × {c.samples}") if bar else None
         for i in range(0, len(todo), per_batch):
             paths = todo[i : i + per_batch]
-            songs = [load_song(path, stack, ckpt, c.seconds, registry, c.texts) for path in paths]
+            songs = [load_song(path, stack, ckpt, c.seconds, registry, c.texts, tracker) for path in paths]
             n, k = max(song.n_frames for song in songs), len(songs)
             progress = (lambda t, i=i, n=n, k=k: bar.update(task, completed=i + k * t / n)) if bar else None
             if bar:

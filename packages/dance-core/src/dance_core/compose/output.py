@@ -1,4 +1,5 @@
-"""What composition writes: each song's output set (its dances in every format, and its text spans), grounded."""
+"""What composition writes: each song's output set (its dances in every format, and its text spans), on the
+beat and grounded."""
 
 from __future__ import annotations
 
@@ -9,9 +10,9 @@ import numpy as np
 
 from dance_core.atomic import OutputSet, set_complete
 from dance_core.checkpoint import Checkpoint
+from dance_core.checks import refuse_same_names
 from dance_core.compose.songs import Song
 from dance_core.data.motion_info import MotionInfo
-from dance_core.checks import refuse_same_names
 from dance_core.errors import DanceError, DataError
 from dance_core.protocols import MotionData
 from dance_core.recipe.schema import Recipe
@@ -45,15 +46,12 @@ def write_song(
     song: Song, motion: np.ndarray, stems: list[str], out: Path, formats: list, ckpt: Checkpoint,
     recipe: Recipe, registry: Registry,
 ) -> list[Path]:
-    """Decode, ground and write one song's dances ``(samples, frames, D)`` as one output set (every
-    file or none); returns the motion files written."""
-    c = recipe.compose
+    """Decode, finish (on the beat, grounded: :func:`finished`) and write one song's dances
+    ``(samples, frames, D)`` as one output set (every file or none); returns the motion files written."""
     with OutputSet(manifest_path(out, song.path)) as files:
         for k, stem in enumerate(stems):
             values = ckpt.stats.motion.invert(motion[k, : song.n_frames])
-            data = ckpt.motion.decode(values, recipe.fps, registry)
-            if c.ground and data.skeleton_motion is not None:
-                data = grounded(data, ckpt.motion, registry)
+            data = finished(ckpt.motion.decode(values, recipe.fps, registry), song, ckpt.motion, registry, recipe)
             data.meta["audio_path"] = song.path
             data.meta["title"] = stem  # previews show the file's own name, not its temporary one
             for entry, fmt in formats:
@@ -64,14 +62,29 @@ def write_song(
         return [p for p in files.targets() if p.suffix != ".texts"]
 
 
-def grounded(data: MotionData, info: MotionInfo, registry: Registry) -> MotionData:
-    """A decoded skeletal dance on the floor with its feet pinned in contact (``compose.ground``),
-    its frame array encoded again from the grounded motion."""
-    from dance_core.motion.grounding import ground
+def finished(data: MotionData, song: Song, info: MotionInfo, registry: Registry, recipe: Recipe,
+             ground: bool | None = None) -> MotionData:
+    """A decoded skeletal dance as it is written: on the floor with its feet pinned in contact (``ground``,
+    default ``compose.ground``), then its accents moved onto the song's beats when the song carries them
+    (``compose.beat_align``, :mod:`dance_core.motion.beat_align`; a time warp keeps planted feet where
+    they are); its frame array encoded again from the changed motion. What each step did is in
+    ``data.meta``."""
+    from dance_core.motion.beat_align import align_to_beats
+    from dance_core.motion.grounding import ground as put_on_floor
 
-    motion, report = ground(data.skeleton_motion)
-    data.meta["grounding"] = report.summary()
-    if report.skipped:
+    motion = data.skeleton_motion
+    if motion is None:
+        return data
+    changed = False
+    if recipe.compose.ground if ground is None else ground:
+        motion, report = put_on_floor(motion)
+        data.meta["grounding"] = report.summary()
+        changed = not report.skipped
+    if song.beats is not None:  # after grounding: the accents of the feet as they will be seen
+        motion, alignment = align_to_beats(motion, song.beats)
+        data.meta["beat_align"] = alignment.summary()
+        changed = changed or alignment.moved > 0
+    if not changed:
         return data
     rep = info.build_representation(registry)
     return replace(data, values=rep.encode(motion).astype(data.values.dtype), skeleton_motion=motion)

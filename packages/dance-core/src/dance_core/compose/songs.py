@@ -23,7 +23,7 @@ from dance_core.spans import SpanTable
 @dataclass
 class Song:
     """One song's name, features and frame count, its text spans (as given, and as a table over its
-    frames with the text streams' rows, standardized)."""
+    frames with the text streams' rows, standardized), and its beat times when the dance is aligned to them."""
 
     name: str
     streams: dict[str, np.ndarray]
@@ -31,6 +31,7 @@ class Song:
     path: str = ""
     texts: tuple[TextSpan, ...] = ()
     spans: SpanTable | None = None
+    beats: np.ndarray | None = None  # beat times (s), for compose.beat_align
 
 
 def seed_motion(
@@ -65,11 +66,25 @@ def song_texts(texts: list[TextSpec], duration: float, where: str) -> tuple[Text
     return tuple(spans)
 
 
+def beat_tracker_of(recipe: Recipe, registry: Registry) -> str | None:
+    """The tracker whose beats ``compose.beat_align`` aligns to: the recipe's beat feature's ``tracker``
+    (the beats the model hears), else ``flux``; None when the recipe does not align."""
+    if not recipe.compose.beat_align:
+        return None
+    for specs in recipe.features.values():
+        for spec in specs:
+            entry = registry.find("feature", spec.plugin)
+            if entry.info.get("beats") and spec.options().get("tracker"):
+                return str(spec.options()["tracker"])
+    return "flux"
+
+
 def load_song(
     path: str, stack: FeatureStack, ckpt: Checkpoint, seconds: float | None, registry: Registry,
-    texts: list[TextSpec] = (),
+    texts: list[TextSpec] = (), tracker: str | None = None,
 ) -> Song:
-    """Features of one song (and its text spans' table), standardized with the checkpoint's statistics."""
+    """Features of one song (and its text spans' table), standardized with the checkpoint's statistics;
+    with ``tracker``, its beats by that tracker too (:func:`beat_tracker_of`)."""
     audio = load_audio(path, registry, stack.formats)
     n_audio = audio.n_frames(stack.fps)
     spans = song_texts(list(texts), n_audio / stack.fps, path)
@@ -85,7 +100,13 @@ def load_song(
         streams[name] = values[:n]
     table = table.map_features(ckpt.stats.apply_rows)
     table = table.extend(n) if n > n_audio else table.crop(0, n)
-    return Song(Path(path).stem, streams, n, str(path), spans, table)
+    beats = None
+    if tracker is not None:
+        from dance_core.data.beat_tracking import TRACK_FPS, tracked_beats
+
+        frames, _ = tracked_beats(audio, registry, tracker)
+        beats = frames / TRACK_FPS
+    return Song(Path(path).stem, streams, n, str(path), spans, table, beats)
 
 
 def load_model(

@@ -225,6 +225,10 @@ class ComposeSpec(Strict):
     ground: bool = Field(
         True, description="put skeletal dances on the floor and pin feet in contact (dance_core.motion.grounding)"
     )
+    beat_align: bool = Field(
+        False, description="move the dance's own accents onto the song's beats by a smooth time warp "
+        "(dance_core.motion.beat_align; beats from the recipe's beat tracker, else flux)"
+    )
     texts: list[TextSpec] = Field(
         default_factory=list, description="text instructions over spans of each song (models that read text)"
     )
