@@ -22,23 +22,39 @@ SILENCE = 1e-4  # peak amplitude below which a file counts as silent
 SHORT_SECONDS = 1.0
 
 
-def _read_soundfile(path: Path) -> tuple[np.ndarray, int]:
+def _wanted(seconds: float | None, rate: int) -> int | None:
+    """Frames to decode for the first ``seconds`` (None: all)."""
+    return None if seconds is None else int(np.ceil(max(float(seconds), 0.0) * rate)) + 1
+
+
+def _read_soundfile(path: Path, seconds: float | None = None) -> tuple[np.ndarray, int]:
     import soundfile as sf
 
-    data, rate = sf.read(str(path), dtype="float32", always_2d=True)
-    return data.mean(axis=1), int(rate)
+    with sf.SoundFile(str(path)) as f:
+        rate = int(f.samplerate)
+        if rate < 1:
+            raise DataError(f"{path}: audio header gives a sample rate of {rate} Hz; the file is damaged")
+        want = _wanted(seconds, rate)
+        data = f.read(-1 if want is None else want, dtype="float32", always_2d=True)
+    return data.mean(axis=1), rate
 
 
-def _read_audioread(path: Path) -> tuple[np.ndarray, int]:
-    chunks = []
+def _read_audioread(path: Path, seconds: float | None = None) -> tuple[np.ndarray, int]:
+    chunks, have = [], 0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)  # audioread imports aifc, audioop, sunau
         import audioread
 
         with audioread.audio_open(str(path)) as f:
             rate, channels = int(f.samplerate), int(f.channels)
+            if rate < 1 or channels < 1:
+                raise DataError(f"{path}: audio header gives {rate} Hz, {channels} channels; the file is damaged")
+            want = _wanted(seconds, rate)
             for buf in f:
                 chunks.append(np.frombuffer(buf, "<i2"))
+                have += len(chunks[-1]) // channels
+                if want is not None and have >= want:
+                    break
     pcm = np.concatenate(chunks) if chunks else np.zeros(0, "<i2")
     pcm = pcm[: len(pcm) // channels * channels].reshape(-1, channels)
     return pcm.astype(np.float32).mean(axis=1) / 32768.0, rate
@@ -171,9 +187,10 @@ def _reason(exc: BaseException) -> str:
 class SoundFileReader:
     """Reads any format libsndfile knows; falls back to audioread (ffmpeg, GStreamer) for the rest."""
 
-    def read(self, path: str | Path) -> Audio:
+    def read(self, path: str | Path, seconds: float | None = None) -> Audio:
         """Samples mixed to mono float32 in [-1, 1] at the file's own rate; a text file, an
-        undecodable file or a truncated one is a one-line error."""
+        undecodable file or a truncated one is a one-line error. With ``seconds``, only the first
+        ``seconds`` are decoded (memory bounded by what is asked, whatever the file's length)."""
         path = check_audio_path(path)
         with open(path, "rb") as fh:
             head = fh.read(512)
@@ -183,10 +200,14 @@ class SoundFileReader:
             if line is not None:
                 raise DataError(f"{path}: cannot decode audio: it is a text file, not audio (it starts {line!r})")
         try:
-            samples, rate = _read_soundfile(path)
+            samples, rate = _read_soundfile(path, seconds)
+        except DataError:
+            raise
         except Exception as first:  # libsndfile cannot decode it: try the system decoders
             try:
-                samples, rate = _read_audioread(path)
+                samples, rate = _read_audioread(path, seconds)
+            except DataError:
+                raise
             except Exception:
                 if kind is None:
                     raise DataError(f"{path}: cannot decode audio: not an audio file any decoder knows "
@@ -196,7 +217,10 @@ class SoundFileReader:
                     problem = _reason(first)
                 detail = f"truncated or damaged: {problem}" if problem else _reason(first)
                 raise DataError(f"{path}: cannot decode audio ({detail})") from None
-        problem = completeness_problem(path, kind, len(samples))
+        want = _wanted(seconds, rate)
+        # only a part was decoded: a FLAC/AIFF is whole when that part was (header-checked kinds as ever)
+        decoded = len(samples) if want is None or len(samples) < want else 1 << 62
+        problem = completeness_problem(path, kind, decoded)
         if problem:
             raise DataError(f"{path}: audio is truncated or damaged: {problem}")
         if len(samples) == 0:
@@ -210,6 +234,8 @@ class SoundFileReader:
 def check_content(samples: np.ndarray, rate: int, path: Path | None) -> None:
     """Warn (not fail) on silence and on very short clips: features stay well defined for both."""
     name = path if path is not None else "audio"
+    if rate < 1:
+        raise DataError(f"{name}: audio header gives a sample rate of {rate} Hz; the file is damaged")
     if float(np.max(np.abs(samples))) < SILENCE:
         warnings.warn(f"{name}: audio is silent; features will be constant", stacklevel=3)
     if len(samples) / rate < SHORT_SECONDS:

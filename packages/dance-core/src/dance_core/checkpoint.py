@@ -146,6 +146,20 @@ def save_checkpoint(
     _save(Path(path), tensors, metadata)
 
 
+def _typed(value: Any, kind: type, field: str) -> Any:
+    """``value`` when it is a ``kind`` (metadata is JSON the file chose); else a ``TypeError`` naming the field."""
+    if not isinstance(value, kind):
+        raise TypeError(f"{field} is a {type(value).__name__}, not a {kind.__name__}")
+    return value
+
+
+def _step(text: Any) -> int:
+    """A step count from metadata: digits only, at most 18 of them."""
+    if not isinstance(text, str) or not (text.isascii() and text.isdigit()) or len(text) > 18:
+        raise ValueError(f"step {str(text)[:20]!r} is not a step count")
+    return int(text)
+
+
 def load_checkpoint(path: str | Path) -> Checkpoint:
     """Read a checkpoint written by :func:`save_checkpoint` (safetensors only, never pickle)."""
     path = Path(path)
@@ -153,13 +167,13 @@ def load_checkpoint(path: str | Path) -> Checkpoint:
     if meta.get("format") != FORMAT:
         raise CheckpointError(f"{path}: not a dance checkpoint (format {meta.get('format')!r})")
     try:
-        recipe = json.loads(meta["recipe"])
-        motion = MotionInfo.from_dict(json.loads(meta["motion"]))
-        found = json.loads(meta.get("versions", "{}"))
-        step = int(meta.get("step", "0"))
+        recipe = _typed(json.loads(meta["recipe"]), dict, "recipe")
+        motion = MotionInfo.from_dict(_typed(json.loads(meta["motion"]), dict, "motion"))
+        found = _typed(json.loads(meta.get("versions", "{}")), dict, "versions")
+        step = _step(meta.get("step", "0"))
         stats = NormStats.from_arrays({k: v.numpy() for k, v in tensors.items() if k.startswith("norm.")})
-    except (KeyError, ValueError, DataError) as exc:
-        raise CheckpointError(f"{path}: corrupt checkpoint metadata ({exc})") from None
+    except (KeyError, ValueError, TypeError, AttributeError, DataError) as exc:
+        raise CheckpointError(f"{path}: corrupt checkpoint metadata ({type(exc).__name__}: {exc})") from None
     weights = {k[len("model.") :]: v for k, v in tensors.items() if k.startswith("model.")}
     return Checkpoint(path, weights, stats, recipe, motion, found, step, meta.get("run"))
 
@@ -231,7 +245,7 @@ def train_state_info(path: str | Path) -> tuple[int, str | None]:
     if meta.get("format") != STATE_FORMAT:
         raise CheckpointError(f"{path}: not a dance training state")
     try:
-        return int(meta["step"]), meta.get("run")
+        return _step(meta["step"]), meta.get("run")
     except (KeyError, ValueError):
         raise CheckpointError(f"{path}: corrupt training state metadata (step)") from None
 

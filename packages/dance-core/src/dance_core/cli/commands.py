@@ -119,8 +119,8 @@ def _text(given: str):
 
     try:
         return TextSpec.parse(given)
-    except ValidationError as exc:
-        msg = exc.errors()[0]["msg"].removeprefix("Value error, ")
+    except ValueError as exc:  # a malformed span, or a pydantic ValidationError
+        msg = exc.errors()[0]["msg"].removeprefix("Value error, ") if isinstance(exc, ValidationError) else str(exc)
         raise RecipeError(f"--text {given!r}: {msg}") from None
 
 

@@ -79,13 +79,18 @@ def beat_tracker_of(recipe: Recipe, registry: Registry) -> str | None:
     return "flux"
 
 
+#: seconds of music decoded past ``--seconds``, so the features of the last frames see what follows
+SEEK_MARGIN_S = 5.0
+
+
 def load_song(
     path: str, stack: FeatureStack, ckpt: Checkpoint, seconds: float | None, registry: Registry,
     texts: list[TextSpec] = (), tracker: str | None = None,
 ) -> Song:
     """Features of one song (and its text spans' table), standardized with the checkpoint's statistics;
     with ``tracker``, its beats by that tracker too (:func:`beat_tracker_of`)."""
-    audio = load_audio(path, registry, stack.formats)
+    # decode no more than asked (and a margin the features' windows look past the end with)
+    audio = load_audio(path, registry, stack.formats, seconds + SEEK_MARGIN_S if seconds else None)
     n_audio = audio.n_frames(stack.fps)
     spans = song_texts(list(texts), n_audio / stack.fps, path)
     raw, table = stack.extract_spans(n_audio, audio, spans)

@@ -43,11 +43,51 @@ def check_audio_path(path: str | Path) -> Path:
     return path
 
 
-def load_audio(path: str | Path, registry: Registry, formats: FormatOptions = DEFAULT_FORMATS) -> Audio:
-    """Read a music file (its reader built with its options in ``formats``, a recipe's ``formats:``);
-    missing, empty or too-short files are one-line errors."""
+#: a sample's magnitude past which audio is refused: far outside [-1, 1] (40 dB over full scale), a
+#: damaged or mis-scaled float file whose features would overflow
+MAX_PEAK = 100.0
+
+
+def read_audio(reader, path: str | Path, seconds: float | None = None) -> Audio:
+    """``reader.read(path)``, decoding only the first ``seconds`` when given (readers that take a
+    ``seconds=`` keyword decode no more, so memory is bounded by what is asked; others are cut after)."""
+    import inspect
+
+    try:
+        takes = "seconds" in inspect.signature(reader.read).parameters
+    except (TypeError, ValueError):
+        takes = False
+    audio = reader.read(str(path), seconds=seconds) if takes and seconds is not None else reader.read(str(path))
+    if seconds is not None:
+        keep = max(1, int(np.ceil(float(seconds) * max(int(audio.rate), 1))))
+        if len(audio.samples) > keep:
+            audio = Audio(audio.samples[:keep], audio.rate, audio.path)
+    return audio
+
+
+def check_audio(audio: Audio, path: str | Path) -> Audio:
+    """A reader's output as every consumer may assume it: a positive rate, finite samples within
+    ``MAX_PEAK``; else one line naming the file."""
+    rate = int(audio.rate) if np.isfinite(audio.rate) else 0
+    if rate < 1:
+        raise DataError(f"{path}: audio header gives a sample rate of {audio.rate} Hz; the file is damaged")
+    samples = np.asarray(audio.samples)
+    if samples.size and not np.all(np.isfinite(samples)):
+        raise DataError(f"{path}: audio holds NaN or infinite samples")
+    peak = float(np.max(np.abs(samples))) if samples.size else 0.0
+    if peak > MAX_PEAK:
+        raise DataError(f"{path}: audio samples reach {peak:.3g}, far outside [-1, 1] (a damaged or mis-scaled "
+                        "float file); normalize it first")
+    return audio
+
+
+def load_audio(path: str | Path, registry: Registry, formats: FormatOptions = DEFAULT_FORMATS,
+               seconds: float | None = None) -> Audio:
+    """Read a music file (its reader built with its options in ``formats``, a recipe's ``formats:``),
+    only its first ``seconds`` when given; missing, empty, too-short, damaged (rate 0, non-finite or
+    absurd samples) files are one-line errors."""
     path = check_audio_path(path)
-    audio = audio_reader_for(path, registry, formats).read(str(path))
+    audio = check_audio(read_audio(audio_reader_for(path, registry, formats), path, seconds), path)
     if audio.duration < MIN_SECONDS:
         raise DataError(f"{path}: audio is {audio.duration:.2f} s long; at least {MIN_SECONDS} s needed")
     return audio

@@ -8,6 +8,7 @@ to that OFFSET: the reader's ``root="auto"`` tells them apart (see :func:`reads_
 from __future__ import annotations
 
 import io
+import math
 from pathlib import Path
 from typing import Any
 
@@ -132,11 +133,14 @@ def _header_value(path: Path, lines: list[str], i: int, key: str, kind: type) ->
     name, sep, value = lines[i].partition(":")
     if not sep or " ".join(name.split()).lower() != key.lower():
         raise DataError(f"{path}:{i + 1}: BVH MOTION: expected '{key}: ...', found {lines[i].strip()[:40]!r}")
+    text = value.strip()
+    if len(text) > 40:  # no frame count or frame time is written with more digits
+        raise DataError(f"{path}:{i + 1}: BVH MOTION: {key} {text[:20]!r}... is not a plausible number")
     try:
-        number = kind(value.strip())
+        number = kind(text)
     except ValueError:
-        raise DataError(f"{path}:{i + 1}: BVH MOTION: {key} {value.strip()!r} is not a number") from None
-    if not np.isfinite(number):
+        raise DataError(f"{path}:{i + 1}: BVH MOTION: {key} {text!r} is not a number") from None
+    if not math.isfinite(number):
         raise DataError(f"{path}:{i + 1}: BVH MOTION: {key} {value.strip()!r} is not a finite number")
     return number
 
@@ -182,7 +186,7 @@ def parse_bvh(path: str | Path, scale: float = 1.0) -> tuple[Skeleton, np.ndarra
     truncated or non-finite file is a one-line error naming the file and line (``path:LINE: ...``)."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8", errors="replace")
+        text = path.read_text(encoding="utf-8-sig", errors="replace")  # a byte-order mark is no error
     except FileNotFoundError:
         raise DataError(f"{path}: motion file not found") from None
     except IsADirectoryError:
@@ -215,6 +219,9 @@ def parse_bvh(path: str | Path, scale: float = 1.0) -> tuple[Skeleton, np.ndarra
     if frame_time <= 0:
         raise DataError(f"{path}:{first + 2}: BVH MOTION: frame time must be positive, got {frame_time:g}")
     n_ch = sum(len(c) for c in p.channels)
+    if n_frames > len(lines) - first - 2:  # before any frame is looked at: every frame is a line
+        raise DataError(f"{path}:{first + 1}: BVH MOTION: {n_frames} frames of {n_ch} channels declared, found "
+                        f"{max(len(lines) - first - 2, 0)} lines after the header (the file ends early: truncated?)")
     values = _frame_rows(path, lines, first + 2, n_frames, n_ch)
     skel = Skeleton(p.names, p.parents, np.array(p.offsets) * scale, p.channels,
                     {k: v * scale for k, v in p.end_sites.items()}, name=path.stem,

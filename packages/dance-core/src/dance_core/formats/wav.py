@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+import os
 import struct
 from pathlib import Path
 from typing import Any
@@ -14,12 +16,14 @@ from dance_core.media import Audio
 PCM, FLOAT, EXTENSIBLE = 1, 3, 0xFFFE
 
 
-def _chunks(data: bytes, path: Path):
+def _chunks(fh, size: int):
+    """``(id, offset, length)`` of each RIFF chunk, read from its header alone (nothing else is loaded)."""
     pos = 12
-    while pos + 8 <= len(data):
-        cid, size = struct.unpack("<4sI", data[pos : pos + 8])
-        yield cid, data[pos + 8 : pos + 8 + size]
-        pos += 8 + size + (size & 1)
+    while pos + 8 <= size:
+        fh.seek(pos)
+        cid, length = struct.unpack("<4sI", fh.read(8))
+        yield cid, pos + 8, length
+        pos += 8 + length + (length & 1)
 
 
 def _decode(raw: bytes, fmt: int, bits: int, path: Path) -> np.ndarray:
@@ -42,37 +46,45 @@ def _decode(raw: bytes, fmt: int, bits: int, path: Path) -> np.ndarray:
 class WavReader:
     """Reads RIFF/WAVE files."""
 
-    def read(self, path: str | Path) -> Audio:
-        """Samples mixed to mono float32 and the file's rate."""
+    def read(self, path: str | Path, seconds: float | None = None) -> Audio:
+        """Samples mixed to mono float32 and the file's rate; with ``seconds``, only the first
+        ``seconds`` are read from the file (memory bounded by what is asked, not by the file)."""
         path = Path(path)
         try:
-            data = path.read_bytes()
+            with open(path, "rb") as fh:
+                size = os.fstat(fh.fileno()).st_size
+                head = fh.read(12)
+                if len(head) < 12 or head[:4] != b"RIFF" or head[8:12] != b"WAVE":
+                    raise DataError(f"{path}: not a WAV file (no RIFF/WAVE header)")
+                fmt_chunk, data = None, None
+                for cid, offset, length in _chunks(fh, size):
+                    if cid == b"fmt ":
+                        fh.seek(offset)
+                        fmt_chunk = fh.read(min(length, 64))
+                    elif cid == b"data":
+                        data = (offset, min(length, size - offset))
+                if fmt_chunk is None or data is None or len(fmt_chunk) < 16:
+                    raise DataError(f"{path}: corrupt WAV file (missing fmt or data chunk)")
+                fmt, channels, rate, _, _, bits = struct.unpack("<HHIIHH", fmt_chunk[:16])
+                if fmt == EXTENSIBLE and len(fmt_chunk) >= 26:
+                    fmt = struct.unpack("<H", fmt_chunk[24:26])[0]
+                if channels < 1 or rate < 1:
+                    raise DataError(f"{path}: corrupt WAV header ({channels} channels, {rate} Hz)")
+                frame_bytes = channels * bits // 8
+                if frame_bytes == 0:
+                    raise DataError(f"{path}: corrupt WAV header ({bits} bits per sample)")
+                length = data[1]
+                if seconds is not None:
+                    length = min(length, (math.ceil(max(float(seconds), 0.0) * rate) + 1) * frame_bytes)
+                fh.seek(data[0])
+                raw = fh.read(length // frame_bytes * frame_bytes)
         except FileNotFoundError:
             raise DataError(f"{path}: audio file not found") from None
         except OSError as exc:
             raise DataError(f"{path}: cannot read audio: {exc.strerror}") from None
-        if len(data) < 12 or data[:4] != b"RIFF" or data[8:12] != b"WAVE":
-            raise DataError(f"{path}: not a WAV file (no RIFF/WAVE header)")
-        fmt_chunk, raw = None, None
-        for cid, body in _chunks(data, path):
-            if cid == b"fmt ":
-                fmt_chunk = body
-            elif cid == b"data":
-                raw = body
-        if fmt_chunk is None or raw is None or len(fmt_chunk) < 16:
-            raise DataError(f"{path}: corrupt WAV file (missing fmt or data chunk)")
-        fmt, channels, rate, _, _, bits = struct.unpack("<HHIIHH", fmt_chunk[:16])
-        if fmt == EXTENSIBLE and len(fmt_chunk) >= 26:
-            fmt = struct.unpack("<H", fmt_chunk[24:26])[0]
-        if channels < 1 or rate < 1:
-            raise DataError(f"{path}: corrupt WAV header ({channels} channels, {rate} Hz)")
-        frame_bytes = channels * bits // 8
-        if frame_bytes == 0:
-            raise DataError(f"{path}: corrupt WAV header ({bits} bits per sample)")
-        raw = raw[: len(raw) // frame_bytes * frame_bytes]
         samples = _decode(raw, fmt, bits, path).reshape(-1, channels).mean(axis=1)
         if not np.all(np.isfinite(samples)):
-            raise DataError(f"{path}: WAV holds non-finite samples")
+            raise DataError(f"{path}: audio holds NaN or infinite samples")
         return Audio(np.ascontiguousarray(samples, dtype=np.float32), int(rate), path)
 
 

@@ -191,6 +191,10 @@ class TextSpec(Strict):
     def parse(cls, given: str) -> TextSpec:
         """``"20-30: a person jumps"`` (span in seconds) or ``"a person jumps"`` (the whole song)."""
         match = re.match(r"^\s*(\d+(?:\.\d*)?)?\s*-\s*(\d+(?:\.\d*)?)?\s*:\s*(.*)$", given, re.S)
+        head = given.split(":", 1)[0] if ":" in given else ""
+        if match is None and re.fullmatch(r"[\s\d.+\-eE]*", head) and re.search(r"\d", head):
+            raise ValueError(f"malformed span {head.strip()!r}: expected START-END: TEXT in seconds from 0, "
+                             "e.g. '20-30: a person jumps' (or no span for the whole song)")
         if match is None:
             return cls(text=given.strip())
         start, end, text = match.groups()

@@ -216,11 +216,11 @@ def embedded_audio(music: str | Path, seconds: float) -> tuple[str, bytes]:
     bound = 44 + 2 * math.ceil(keep * PREVIEW_RATE)  # the largest cut WAV
     if music.stat().st_size <= bound:
         return kind, music.read_bytes()
-    from dance_core.data.features import audio_reader_for
+    from dance_core.data.features import audio_reader_for, check_audio, read_audio
     from dance_core.registry import get_registry
 
-    try:
-        audio = audio_reader_for(music, get_registry()).read(str(music))
+    try:  # only the part embedded is decoded
+        audio = check_audio(read_audio(audio_reader_for(music, get_registry()), music, keep), music)
     except DataError as exc:
         from dance_core.plugins import warn
 
