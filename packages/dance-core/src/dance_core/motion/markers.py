@@ -119,7 +119,8 @@ def write_markers(path: str | Path, markers: Markers, fps: float | None = None) 
     data = markers.to_dict()
     if fps is not None:
         data["fps"] = float(fps)
-    write_text(path, json.dumps(data, indent=1) + "\n")
+    lines = ",\n".join(f" {json.dumps(key)}: {json.dumps(value)}" for key, value in data.items())
+    write_text(path, "{\n" + lines + "\n}\n")  # one key a line, its list on that line
 
 
 def read_markers(path: str | Path) -> Markers:
