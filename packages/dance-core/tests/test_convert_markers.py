@@ -95,3 +95,25 @@ def test_blender_script_adds_timeline_markers(tmp_path, suffix):
     got = {(name, frame - first) for name, frame in report["markers"]}
     contacts = {("L down", 3), ("L up", 12)} if suffix == ".bvh" else set()
     assert {("beat", 15), ("beat", 30), ("bar 1", 15), ("chorus", 36)} | contacts <= got
+
+
+@needs_blender
+def test_fbx_through_blender_imports_with_our_frames_and_floor(tmp_path):
+    """``dance convert -o X.fbx``: Blender's own FBX importer reads it back with our frame count and the
+    lowest joint per frame within 1 cm of ours."""
+    from blender_helpers import run_blender, y_up
+
+    motion = _dance(dance24(), frames=45, seed=6)
+    BvhFormat().write_motion(motion, tmp_path / "in.bvh")
+    assert main(["convert", str(tmp_path / "in.bvh"), "-o", str(tmp_path / "dance.fbx")]) == 0
+    data, _ = run_blender(tmp_path / "dance.fbx", tmp_path / "fbx.json", fps=30.0)
+    assert data["frames"] == motion.n_frames
+    ours = BvhFormat().read_motion(tmp_path / "in.bvh").positions(end_sites=True)
+    assert np.abs(y_up(data["heads"])[..., 1].min(axis=1) - ours[..., 1].min(axis=1)).max() < 0.01
+
+
+def test_fbx_without_blender_is_one_line(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("PATH", str(tmp_path))  # no blender there
+    BvhFormat().write_motion(_dance(dance24(), frames=5), tmp_path / "in.bvh")
+    assert main(["convert", str(tmp_path / "in.bvh"), "-o", str(tmp_path / "dance.fbx")]) != 0
+    assert "needs Blender" in capsys.readouterr().err and not (tmp_path / "dance.fbx").exists()

@@ -1,7 +1,7 @@
 """Import a BVH (or glTF binary) file with Blender's own importer (headless) and write where it puts every bone.
 
-Run as ``blender -b --factory-startup --python bvh_floor.py -- in.bvh out.json``; a ``.glb`` goes through
-Blender's glTF importer instead (its frame rate, the third argument, set as the scene's first, so one key
+Run as ``blender -b --factory-startup --python bvh_floor.py -- in.bvh out.json``; a ``.glb`` (``.fbx``) goes through
+Blender's glTF (FBX) importer instead (its frame rate, the third argument, set as the scene's first, so one key
 per frame lands on one Blender frame; glTF is Y up by definition). The file is read
 as Y up (``axis_forward="-Z", axis_up="Y"``, Blender's defaults for BVH), so the armature stands in
 Blender's Z-up world; every imported frame is evaluated and the world head and tail of each pose
@@ -35,7 +35,11 @@ def main(argv):
     src, dst = argv[:2]
     for obj in list(bpy.data.objects):  # the factory scene's cube, camera and light
         bpy.data.objects.remove(obj, do_unlink=True)
-    if src.lower().endswith(".glb"):
+    if src.lower().endswith(".fbx"):
+        fps = float(argv[2]) if len(argv) == 3 else 24.0
+        bpy.context.scene.render.fps, bpy.context.scene.render.fps_base = round(fps), round(fps) / fps
+        bpy.ops.import_scene.fbx(filepath=src)
+    elif src.lower().endswith(".glb"):
         fps = float(argv[2]) if len(argv) == 3 else 24.0
         bpy.context.scene.render.fps, bpy.context.scene.render.fps_base = round(fps), round(fps) / fps
         import numpy  # Debian's Blender 3.4 glTF importer asks for numpy.bool, which numpy 1.24 dropped
@@ -45,7 +49,7 @@ def main(argv):
         bpy.ops.import_scene.gltf(filepath=src)
     builtins.open = _open_without_u
     try:
-        if not src.lower().endswith(".glb"):
+        if not src.lower().endswith((".glb", ".fbx")):
             bpy.ops.import_anim.bvh(filepath=src, axis_forward="-Z", axis_up="Y", global_scale=1.0,
                                     rotate_mode="NATIVE", use_fps_scale=False, update_scene_fps=True,
                                     update_scene_duration=True, frame_start=1)
