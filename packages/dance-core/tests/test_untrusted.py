@@ -56,7 +56,8 @@ def _positions(frames: int = 4) -> np.ndarray:
 
 def _script_data(page: str) -> dict:
     """The JSON block of a page, cut out as a browser's HTML parser would: up to the first ``</script``."""
-    start = page.index('<script type="application/json" id="motion">') + len('<script type="application/json" id="motion">')
+    tag = '<script type="application/json" id="motion">'
+    start = page.index(tag) + len(tag)
     end = page.lower().index("</script", start)
     return json.loads(page[start:end])
 
@@ -124,10 +125,9 @@ def _format_calls(source: str) -> list[int]:
     """Lines of ``x.format(...)`` calls whose receiver is not a string literal (a template we wrote)."""
     lines = []
     for node in ast.walk(ast.parse(source)):
-        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr in ("format",
-                                                                                                       "format_map"):
-            if not isinstance(node.func.value, ast.Constant):
-                lines.append(node.lineno)
+        call = isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+        if call and node.func.attr in ("format", "format_map") and not isinstance(node.func.value, ast.Constant):
+            lines.append(node.lineno)
     return lines
 
 

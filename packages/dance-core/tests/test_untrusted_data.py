@@ -218,8 +218,9 @@ def test_a_hostile_npz_is_one_line_naming_the_file(tmp_path, content, expected):
 
 
 def _checkpoint(path: Path, **meta) -> None:
-    from dance_core.checkpoint import FORMAT, write_safetensors
     import torch
+
+    from dance_core.checkpoint import FORMAT, write_safetensors
 
     base = {"format": FORMAT, "recipe": "{}", "motion": '{"dim": 2, "fps": 30.0}', "versions": "{}", "step": "1"}
     write_safetensors(path, {"model.w": torch.zeros(2)}, {**base, **meta})

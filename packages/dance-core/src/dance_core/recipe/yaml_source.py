@@ -189,9 +189,9 @@ def parse_text(text: str, origin: str) -> Source:
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = f":{mark.line + 1}" if mark is not None else ""
-        raise RecipeError(f"{origin}{line}: invalid YAML: {exc.problem or exc}") from None
-    except yaml.YAMLError as exc:
-        raise RecipeError(f"{origin}: invalid YAML: {exc}") from None
+        raise RecipeError(f"{origin}{line}: invalid YAML: {' '.join(str(exc.problem or exc).split())}") from None
+    except yaml.YAMLError as exc:  # a reader error (a control character, bad encoding): one line
+        raise RecipeError(f"{origin}: invalid YAML: {' '.join(str(exc).split())}") from None
     return Source(data, node, origin)
 
 
