@@ -95,7 +95,7 @@ def test_evaluate_reference_against_itself_and_audio_beats(synthetic_set):
     report = json.loads(out.read_text())
     assert report["values"]["FID_k"] == pytest.approx(0.0, abs=1e-6)
     assert report["values"]["FMD"] == pytest.approx(0.0, abs=1e-6)
-    assert any("from energy onset peaks" in n or "librosa tracker" in n for n in report["notes"])
+    assert any("from energy onset peaks" in n or "flux tracker" in n for n in report["notes"])
     # beats found in the click tracks score like the annotated beats
     annotated = synthetic_set / "annotated.json"
     assert (

@@ -27,6 +27,9 @@ def add_parser(subparsers) -> None:
     p.add_argument(
         "--music", metavar="DIR", help="folder of the songs (audio or NAME.beats) named like the motion files"
     )
+    p.add_argument("--tracker", choices=("flux", "librosa", "madmom", "auto"), default="flux",
+                   help="beat tracker for songs without a .beats file (default flux: licence-clean; madmom reads "
+                   "non-commercial weights)")
     p.add_argument("--metrics", nargs="+", metavar="NAME", help="metrics to compute (default: all registered)")
     p.add_argument("-o", "--out", default="report.json", metavar="FILE", help="JSON report to write")
     p.add_argument("--plots", metavar="DIR", help="folder for the figures (default: next to the report)")
@@ -98,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
         generated = loading.load_clips(args.generated, registry, args.up, reader("generated"), args.suffixes)
         fps = args.fps or loading.common_fps(reference)[0].fps
         reference, generated = loading.common_fps(reference, fps), loading.common_fps(generated, fps)
-        notes = loading.attach_music(generated, args.music, registry) if args.music else []
+        notes = loading.attach_music(generated, args.music, registry, args.tracker) if args.music else []
         names = args.metrics or registry.names("metric")
         task = bar.add_task("metrics", total=len(names), info="") if bar else None
         report = R.evaluate(
@@ -114,6 +117,7 @@ def run(args: argparse.Namespace) -> int:
         "generated": str(args.generated),
         "reference": str(args.reference),
         "music": args.music,
+        "tracker": args.tracker if args.music else None,
         "fps": fps,
         "compat": args.compat,
         "clips": {"generated": len(generated), "reference": len(reference)},

@@ -37,7 +37,8 @@ def read_motion_file(
 
 
 def motion_files(folder: Path, registry: Registry, only: list[str] | None = None) -> list[Path]:
-    """Every file in ``folder`` whose suffix a registered motion format reads (or one of ``only``)."""
+    """Every file in ``folder`` whose suffix a registered motion format reads (or one of ``only``); hidden
+    files (``.NAME``: compose's output manifests, temporary files of writes in progress) are not motion."""
     if not folder.is_dir():
         raise DataError(f"{folder}: not a folder of motion files")
     suffixes = set(motion_suffixes(registry))
@@ -47,7 +48,8 @@ def motion_files(folder: Path, registry: Registry, only: list[str] | None = None
         if unknown:
             raise DataError(f"no motion format reads {', '.join(unknown)} (readable: {', '.join(sorted(suffixes))})")
         suffixes = wanted
-    files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in suffixes)
+    files = sorted(p for p in folder.iterdir()
+                   if p.is_file() and not p.name.startswith(".") and p.suffix.lower() in suffixes)
     if not files:
         raise DataError(f"{folder}: no motion files (readable: {', '.join(sorted(suffixes))})")
     return files

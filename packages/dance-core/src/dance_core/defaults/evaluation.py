@@ -40,6 +40,18 @@ def register_metrics(register):
         "Share of bars within a threshold of one of the synthetic dancer's move templates",
     )
     register(
+        "realism",
+        e.RealismConfig,
+        "dance_core.evaluation.realism_metrics:build_realism",
+        "Fréchet distance of window statistics (knee and elbow bend, steps, travel, turns...) to the reference",
+    )
+    register(
+        "body-locking",
+        e.BodyLockingConfig,
+        "dance_core.evaluation.realism_metrics:build_body_locking",
+        "Beat locking of the body's own accents (a rigid figure has none), with a wrong-tempo control",
+    )
+    register(
         "mpd",
         e.MPDConfig,
         "dance_core.evaluation.mpd:build_mpd",

@@ -75,6 +75,16 @@ class SampleDiversityConfig(ComponentConfig):
     hips: list[str] | None = Field(None, min_length=2, max_length=2)
 
 
+class RealismConfig(ComponentConfig):
+    """Seconds between the starts of the 4-s windows the statistics are taken over."""
+
+    hop_seconds: PositiveFloat = 0.5
+
+
+class BodyLockingConfig(ComponentConfig):
+    """No options: accents are the body's own (``dance_core.motion.body.body_beats``)."""
+
+
 class PFCConfig(ComponentConfig):
     """Left ankle, left toe, right ankle, right toe joint names (default: SMPL-24 or known names)."""
 

@@ -113,8 +113,10 @@ def common_fps(clips: list[JointClip], fps: float | None = None) -> list[JointCl
     return [resampled(c, target) for c in clips]
 
 
-def attach_music(clips: list[JointClip], music_dir: str | Path, registry: Registry) -> list[str]:
-    """Set ``music_beats`` of every clip whose song is in ``music_dir``; return notes on the sources."""
+def attach_music(clips: list[JointClip], music_dir: str | Path, registry: Registry,
+                 tracker: str = "flux") -> list[str]:
+    """Set ``music_beats`` of every clip whose song is in ``music_dir`` (audio through ``tracker``);
+    return notes on the sources."""
     folder = Path(music_dir)
     if not folder.is_dir():
         raise DataError(f"{folder}: not a folder of music")
@@ -133,7 +135,7 @@ def attach_music(clips: list[JointClip], music_dir: str | Path, registry: Regist
             if song.suffix == ".beats":
                 cache[song], method = M.read_beats_file(song), "beat annotation files"
             else:
-                cache[song], method = M.audio_beats(load_audio(song, registry), registry)
+                cache[song], method = M.audio_beats(load_audio(song, registry), registry, tracker)
             methods[method] += 1
         clip.music_beats = cache[song]
         clip.meta["music"] = str(song)
