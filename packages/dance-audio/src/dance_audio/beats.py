@@ -18,6 +18,7 @@ import numpy as np
 
 from dance_core import Audio, DataError, FeatureInputs, PluginError
 
+from .meter import detect_meter
 from .timing import event_phase, events_to_onehot, resample
 
 LIBROSA_RATE, LIBROSA_FFT, LIBROSA_HOP, LIBROSA_MELS = 22050, 2048, 512, 128
@@ -66,7 +67,8 @@ def track_librosa(audio: Audio, beats_per_bar: list[int], min_bpm: float, max_bp
     _, frames = beat_track(onset, LIBROSA_RATE / LIBROSA_HOP, start_bpm=float(np.sqrt(min_bpm * max_bpm)))
     times = frames * LIBROSA_HOP / LIBROSA_RATE
     strength = onset[frames] if len(frames) else np.zeros(0)
-    return Beats(times, bar_positions(strength, max(beats_per_bar)))
+    bar = detect_meter(onset, times, LIBROSA_RATE / LIBROSA_HOP, beats_per_bar)
+    return Beats(times, bar_positions(strength, bar))
 
 
 def bar_positions(strength: np.ndarray, bar: int) -> np.ndarray:
@@ -78,13 +80,14 @@ def bar_positions(strength: np.ndarray, bar: int) -> np.ndarray:
 
 def track_flux(audio: Audio, beats_per_bar: list[int], min_bpm: float, max_bpm: float) -> Beats:
     """The bar-pointer HMM on dance-audio's bass-weighted spectral flux (:mod:`.flux_beats`): tempo
-    may change from beat to beat; bars start on the beat phase with the most onset energy."""
+    may change from beat to beat; the meter among ``beats_per_bar`` from the beats' rhythm patterns
+    (:mod:`.meter`), bars starting on the beat phase with the most onset energy."""
     from .flux_beats import FPS, track_times
 
     times, env = track_times(audio.samples, audio.rate, min_bpm, max_bpm)
     frames = np.round(times * FPS).astype(np.int64)
     strength = np.array([env[max(0, f - 2) : f + 3].max() for f in frames]) if len(frames) else np.zeros(0)
-    return Beats(times, bar_positions(strength, max(beats_per_bar)))
+    return Beats(times, bar_positions(strength, detect_meter(env, times, FPS, beats_per_bar)))
 
 
 TRACKERS = ("flux", "librosa", "madmom", "auto")
@@ -113,6 +116,9 @@ def track_beats(
 
 class BeatFeatures:
     """Six columns: beat one-hot, downbeat one-hot, sin and cos of the beat phase and of the bar phase."""
+
+    #: 2: bars of the detected meter (3 or 4 beats, :mod:`.meter`) instead of always the longest
+    revision = 2
 
     def __init__(self, tracker: str, beats_per_bar: list[int], min_bpm: float, max_bpm: float):
         self.tracker, self.beats_per_bar = tracker, list(beats_per_bar)

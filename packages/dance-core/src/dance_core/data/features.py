@@ -103,7 +103,11 @@ class FeatureStack:
             for name, specs in recipe.features.items()
         }
         #: the extractors and their options, per stream (what feature caches are keyed by)
-        self.signature = {name: [{"plugin": s.plugin, **s.options()} for s in specs]
+        #: an extractor whose output changed for the same options declares ``revision`` (an int): it is
+        #: part of the signature, so features cached before the change are computed again
+        self.signature = {name: [{"plugin": s.plugin, **s.options(),
+                                  **({"revision": x.revision} if getattr(x, "revision", None) is not None else {})}
+                                 for s, (_, x) in zip(specs, self.streams[name], strict=True)]
                           for name, specs in recipe.features.items()}
         #: the recipe's ``formats:``: the audio readers' options when songs are read for these features
         self.formats: FormatOptions = recipe.format_options
