@@ -190,6 +190,28 @@ def refuse_same_names(paths: Iterable[str | Path], option: str | None = None, wh
         seen[name] = str(path)
 
 
+def available_memory() -> int | None:
+    """Bytes of memory the machine can still give without swapping (Linux's ``MemAvailable``), or None
+    where that is not known."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
+
+
+def refuse_beyond_memory(need: float, what: str, lower: str) -> None:
+    """One line before any work when ``what`` needs about ``need`` bytes, more than the machine has free
+    (``lower``: the options that ask for less)."""
+    free = available_memory()
+    if free is not None and need > free:
+        raise DanceError(f"{what}: needs about {need / 2**30:.1f} GB of memory, more than the {free / 2**30:.1f} GB "
+                         f"free; lower {lower}")
+
+
 def nonfinite_reason(positions: Any, names: list[str] | None = None) -> str | None:
     """Where joint positions first hold NaN or inf (``"NaN at frame 12, joint 'Hips' (30 values)"``), or None."""
     import numpy as np

@@ -7,6 +7,7 @@ of the music's beat phase and the current move: learnable, and checkable against
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -21,21 +22,29 @@ BEATS_PER_BAR = 4
 
 def click_track(beats: np.ndarray, seconds: float, rate: int, rng: np.random.Generator) -> np.ndarray:
     """Decaying tone bursts on the beats (higher and louder on downbeats) over a quiet drone."""
+    pieces = list(click_chunks(beats, seconds, rate, rng))
+    return np.concatenate(pieces) if pieces else np.zeros(0, np.float32)
+
+
+def click_chunks(beats: np.ndarray, seconds: float, rate: int, rng: np.random.Generator,
+                 chunk: int = 1 << 20) -> Iterator[np.ndarray]:
+    """:func:`click_track` in pieces of ``chunk`` samples (the same samples, one piece in memory at a time)."""
     n = int(round(seconds * rate))
-    t = np.arange(n) / rate
     notes = rng.choice([110.0, 130.8, 146.8, 164.8, 196.0], size=2, replace=False)
-    audio = 0.04 * np.sin(2 * np.pi * notes[0] * t) + 0.03 * np.sin(2 * np.pi * notes[1] * t)
     burst_t = np.arange(int(0.12 * rate)) / rate
-    for k, b in enumerate(beats):
-        down = k % BEATS_PER_BAR == 0
-        tone = (0.6 if down else 0.35) * np.sin(2 * np.pi * (1600.0 if down else 900.0) * burst_t)
-        tone *= np.exp(-burst_t / 0.03)
-        start = int(round(b * rate))
-        end = min(n, start + len(tone))
-        if start < n:
-            audio[start:end] += tone[: end - start]
-    audio += 0.003 * rng.standard_normal(n)
-    return audio.astype(np.float32)
+    tones = [(0.6 if down else 0.35) * np.sin(2 * np.pi * (1600.0 if down else 900.0) * burst_t)
+             * np.exp(-burst_t / 0.03) for down in (False, True)]
+    starts = np.round(np.asarray(beats, np.float64) * rate).astype(np.int64)
+    for s in range(0, n, chunk):
+        e = min(n, s + chunk)
+        t = np.arange(s, e) / rate
+        audio = 0.04 * np.sin(2 * np.pi * notes[0] * t) + 0.03 * np.sin(2 * np.pi * notes[1] * t)
+        for k in np.flatnonzero((starts < e) & (starts + len(burst_t) > s) & (starts >= 0)):
+            tone, start = tones[int(k % BEATS_PER_BAR == 0)], int(starts[k])
+            lo, hi = max(start, s), min(e, start + len(tone))
+            audio[lo - s:hi - s] += tone[lo - start:hi - start]
+        audio += 0.003 * rng.standard_normal(e - s)
+        yield audio.astype(np.float32)
 
 
 class SyntheticBeats:

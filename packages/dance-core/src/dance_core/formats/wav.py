@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import os
 import struct
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -90,12 +91,36 @@ class WavReader:
 
 def write_wav(path: str | Path, samples: np.ndarray, rate: int) -> None:
     """Write mono 16-bit PCM atomically (used for synthesized demo music)."""
-    from dance_core.atomic import write_bytes
+    samples = np.asarray(samples)
+    write_wav_chunks(path, (samples[i:i + _PIECE] for i in range(0, len(samples), _PIECE)), rate)
 
-    pcm = np.clip(np.round(np.asarray(samples, np.float64) * 32768.0), -32768, 32767).astype("<i2").tobytes()
-    header = b"RIFF" + struct.pack("<I", 36 + len(pcm)) + b"WAVE"
+
+#: samples converted at a time by :func:`write_wav_chunks`
+_PIECE = 1 << 20
+
+
+def write_wav_chunks(path: str | Path, chunks: Iterable[np.ndarray], rate: int) -> None:
+    """Write mono 16-bit PCM given piece by piece, atomically: memory holds one piece at a time, so a long
+    song costs what one piece costs (the header's sizes are filled in once the last piece is written)."""
+    from dance_core.atomic import atomic_path
+
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        fh.write(_wav_header(0, rate))
+        size = 0
+        for chunk in chunks:
+            pcm = np.clip(np.round(np.asarray(chunk, np.float64) * 32768.0), -32768, 32767).astype("<i2")
+            fh.write(pcm.tobytes())
+            size += pcm.nbytes
+        if size > 0xFFFFFFFF - 36:
+            raise DataError(f"{path}: {size // 2} samples do not fit in a WAV file (at most 4 GB)")
+        fh.seek(0)
+        fh.write(_wav_header(size, rate))
+
+
+def _wav_header(size: int, rate: int) -> bytes:
+    header = b"RIFF" + struct.pack("<I", 36 + size) + b"WAVE"
     fmt = b"fmt " + struct.pack("<IHHIIHH", 16, PCM, 1, rate, rate * 2, 2, 16)
-    write_bytes(path, header + fmt + b"data" + struct.pack("<I", len(pcm)) + pcm)
+    return header + fmt + b"data" + struct.pack("<I", size)
 
 
 def build(config: Any = None, **_: Any) -> WavReader:

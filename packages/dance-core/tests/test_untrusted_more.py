@@ -1,0 +1,73 @@
+"""Issue 28, untrusted input, the classes after the first two files (test_untrusted.py, test_untrusted_data.py):
+``dance synth`` with two songs of one name and memory bounded by what is asked, generated dances checked for
+sanity before they are written, plugins whose import exits, stale locks, a full disk, valid input that was
+refused. Each class is a table of cases."""
+
+from __future__ import annotations
+
+import tracemalloc
+import wave
+
+import numpy as np
+import pytest
+
+from dance_core.cli.main import main
+from dance_core.formats.wav import write_wav
+
+# ----------------------------------------------------------------------------- dance synth: names, memory
+
+
+@pytest.mark.parametrize("layout", [
+    ["a/song.wav", "b/song.wav"],
+    ["a/song.wav", "b/song.flac"],
+    ["a/", "b/song.wav"],  # a folder holding song.wav, and another song.wav
+    ["a/", "b/"],
+    ["x/s.wav", "y/t.wav", "z/s.wav"],
+])
+def test_synth_refuses_two_songs_of_one_name_before_any_work(tmp_path, capsys, layout):
+    for name in ("a/song.wav", "b/song.wav", "b/song.flac", "x/s.wav", "y/t.wav", "z/s.wav"):
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        write_wav(tmp_path / name, np.zeros(800, np.float32), 8000)
+    out = tmp_path / "out"
+    code = main(["synth", "--out", str(out), "--music", *[str(tmp_path / p) for p in layout]])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(err) == 1 and "has the same name; their dances would overwrite each other" in err[0]
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("seconds, rate, bpm", [(1.0, 8000, 120.0), (3.3, 22050, 400.0), (50.0, 44100, 97.0)])
+def test_the_click_track_is_written_piece_by_piece_with_the_same_samples(tmp_path, capsys, seconds, rate, bpm):
+    from dance_core.data.synthetic_beats import click_track
+
+    path = tmp_path / "c.wav"
+    assert main(["synth", str(path), "--seconds", str(seconds), "--rate", str(rate), "--bpm", str(bpm)]) == 0
+    whole = tmp_path / "whole.wav"
+    write_wav(whole, click_track(np.arange(0.0, seconds, 60.0 / bpm), seconds, rate, np.random.default_rng(0)), rate)
+    assert path.read_bytes() == whole.read_bytes()
+    with wave.open(str(path)) as w:
+        assert (w.getnframes(), w.getframerate()) == (int(round(seconds * rate)), rate)
+
+
+def test_an_hour_at_192_khz_takes_the_memory_of_one_piece(tmp_path, capsys):
+    """Numpy's arrays are traced by tracemalloc: the whole song at once would peak above 5 GB."""
+    path = tmp_path / "long.wav"
+    tracemalloc.start()
+    try:
+        assert main(["synth", str(path), "--seconds", "120", "--rate", "192000"]) == 0
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert path.stat().st_size == 44 + 2 * 120 * 192000
+    assert peak < 100 * 2**20, f"peak {peak / 2**20:.0f} MB"  # the whole song at once: about 900 MB
+
+
+@pytest.mark.parametrize("argv", [
+    ["--songs", "1", "--seconds", "3600", "--rate", "192000"],
+    ["--songs", "4", "--seconds", "600", "--rate", "96000", "--jobs", "4"],
+])
+def test_a_dataset_larger_than_memory_is_refused_before_any_work(tmp_path, capsys, monkeypatch, argv):
+    monkeypatch.setattr("dance_core.checks.available_memory", lambda: 8 * 2**30)
+    code = main(["synth", "--out", str(tmp_path / "out"), *argv])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(err) == 1 and "GB of memory, more than the 8.0 GB free" in err[0], err
+    assert "--rate" in err[0] and not (tmp_path / "out").exists()
