@@ -30,7 +30,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("synth", ("synth",)),
     ("render", ("render",)),
     ("evaluation", ("evaluation",)),
-    ("loops", ("model", "checkpoint", "warm_start", "distributed", "train", "compose", "likelihood")),
+    ("loops", ("model", "checkpoint", "warm_start", "distributed", "train", "compose", "likelihood", "delivery")),
     ("face", ("", "api", "testing", "pytest_plugin")),
     ("live", ("live",)),
     ("cli", ("cli",)),

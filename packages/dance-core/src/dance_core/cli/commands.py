@@ -23,7 +23,8 @@ def compose(args: Namespace) -> int:
     options = api.ComposeOptions(
         music=args.music, checkpoint=args.checkpoint, out_dir=args.out, samples=args.samples,
         seconds=args.seconds, temperature=args.temperature, seed_motion=args.seed_motion, texts=texts,
-        formats=args.formats, overwrite=args.overwrite, shard=args.shard, quiet=args.quiet,
+        formats=args.formats, markers=args.markers, rig=args.rig, rig_map=args.rig_map, output_fps=args.output_fps,
+        units=args.units, overwrite=args.overwrite, shard=args.shard, quiet=args.quiet,
     )
     inputs = api.resolve_inputs(recipe, options)
     _check_compose_inputs(inputs)

@@ -10,9 +10,8 @@ from __future__ import annotations
 import argparse
 
 from dance_core.checks import bounded_number
+from dance_core.delivery import UNITS
 
-#: output units of lengths: metres per unit
-UNITS = {"m": 1.0, "cm": 0.01}
 BLENDER_SCRIPT = ("templates", "blender", "import_dance.py.tmpl")
 
 
@@ -55,26 +54,6 @@ def add_parser(subparsers) -> None:
     p.set_defaults(run=run)
 
 
-def motion_data(motion, meta: dict | None = None):
-    """A skeletal motion as ``MotionData``: joint positions as the frame array (what feature formats write)."""
-    from dance_core.protocols import MotionData
-
-    positions = motion.positions()
-    channels = [f"{name}.{axis}" for name in motion.skeleton.names for axis in "xyz"]
-    return MotionData(positions.reshape(len(positions), -1).astype("float32"), motion.fps, channels,
-                      dict(meta or {}), motion)
-
-
-def in_units(motion, units: str):
-    """The motion with its lengths in ``units`` (m or cm), from its skeleton's units or their guess."""
-    from dataclasses import replace
-
-    from dance_core.formats.glb import metres_per_unit
-
-    factor = metres_per_unit(motion.skeleton) / UNITS[units]
-    return replace(motion, skeleton=motion.skeleton.scaled(factor, units), root=motion.root * factor)
-
-
 def _write_script(path: str) -> None:
     from importlib import resources
 
@@ -90,10 +69,10 @@ def run(args: argparse.Namespace) -> int:
     """Check every input, then read, retarget, resample, convert units and write atomically with the markers."""
     from dance_core.atomic import OutputSet
     from dance_core.checks import check_input_file, check_output_file
-    from dance_core.cli.retarget import _is_preset, _target_skeleton
     from dance_core.data.files import read_motion_file
+    from dance_core.delivery import dance_markers, deliver, motion_data, plan_delivery
     from dance_core.errors import DanceError, DataError
-    from dance_core.motion.markers import Markers, contact_spans, read_markers, sidecar_path, write_markers
+    from dance_core.motion.markers import read_markers, sidecar_path, write_markers
     from dance_core.registry import get_registry
 
     if args.blender_script:
@@ -107,45 +86,21 @@ def run(args: argparse.Namespace) -> int:
     check_input_file(args.motion, None, "motion file")
     if args.music:
         check_input_file(args.music, "--music", "music file")
-    for option in ("source_map", "rig_map"):
-        spec = getattr(args, option)
-        if spec is not None and not _is_preset(spec):
-            check_input_file(spec, f"--{option.replace('_', '-')}", "joint map")
-    if args.rig_map and not args.rig:
-        raise DanceError("--rig-map: only with --rig")
-    target = None
-    if args.rig:
-        from dance_core.motion.retarget import rig_frames
-
-        target = _target_skeleton(args.rig, registry)
-        rig_frames(target, args.rig_map, args.rig)  # a rig that cannot be mapped fails before the input is read
+    # the maps and the rig (that it can be mapped) are checked before the input is read
+    delivery = plan_delivery(registry, args.rig, args.rig_map, args.source_map, not args.no_ground, args.fps,
+                             args.units)
     entry = registry.for_suffix("motion-format", out.suffix, readable=False)
     fmt = entry.build(entry.config_for({"body": False})) if args.no_body and entry.name == "glb" else entry.build()
     data = read_motion_file(args.motion, registry)
     motion = data.skeleton_motion
     if motion is None or motion.rotations is None:
         raise DataError(f"{args.motion}: converting needs a skeletal motion with joint rotations")
-    note = ""
-    if target is not None:
-        from dance_core.motion.retarget import retarget
-
-        motion, report = retarget(motion, target, args.source_map, args.rig_map, ground=not args.no_ground,
-                                  where=args.motion)
-        note = report.summary()
-    if args.fps:
-        motion = motion.resample(args.fps)
-    if args.units:
-        motion = in_units(motion, args.units)
+    motion, note = deliver(motion, delivery, args.motion)
     markers = data.meta.get("markers")
     beside = sidecar_path(args.motion)
     if markers is None and beside.is_file():
         markers = read_markers(beside)
-    if args.music:
-        from dance_core.evaluation.song_markers import song_markers
-
-        markers = song_markers(args.music, registry, motion)
-    markers = markers or Markers()
-    markers.contacts = contact_spans(motion) or markers.contacts
+    markers = dance_markers(motion, registry, args.music, markers)
     with OutputSet() as files:
         fmt.write(motion_data(motion, {"markers": markers, "title": out.stem}), str(files.path(out)))
         if args.markers:

@@ -149,6 +149,16 @@ def _compose_parser(sub) -> None:
     p.add_argument("--text", dest="texts", action="append", metavar="[START-END:] TEXT",
                    help='text instruction, e.g. "20-30: a person jumps" (seconds; no span: the whole song; '
                         "repeatable; models that read text only)")
+    p.add_argument("--markers", action="store_true", default=None,
+                   help="also write each dance's .markers.json: the song's beats, downbeats, sections and the "
+                        "foot contacts (default: compose.markers)")
+    p.add_argument("--rig", metavar="RIG", help="retarget each dance onto your character: a .bvh or .glb whose "
+                   "skeleton is the rig, or dance24 (default: compose.rig)")
+    p.add_argument("--rig-map", metavar="MAP", help="joint map of the rig: a preset name or a YAML file "
+                   "(default: detected)")
+    p.add_argument("--fps", dest="output_fps", type=bounded_number(float, 0.0, 1000.0, above=True),
+                   help="frame rate of the files written, e.g. 24, 30, 60 (resampled; default: the model's)")
+    p.add_argument("--units", choices=("m", "cm"), help="length units of the files written (glb: always m)")
     p.add_argument("--shard", type=shard_arg, metavar="I/N",
                    help="compose only part I of N (1-based): song k (from 0) of the path-sorted list goes to part "
                         "k mod N + 1")

@@ -44,26 +44,11 @@ def add_parser(subparsers) -> None:
     p.set_defaults(run=run)
 
 
-def _target_skeleton(spec: str, registry):
-    """The skeleton to retarget onto: a built-in by name or the skeleton of a motion file."""
-    from dance_core.checks import check_input_file
-    from dance_core.data.files import read_motion_file
-    from dance_core.errors import DataError
-    from dance_core.motion import skeletons
-
-    if spec in BUILT_IN:
-        return getattr(skeletons, spec)()
-    check_input_file(spec, "--to", "rig file")
-    data = read_motion_file(spec, registry)
-    if data.skeleton_motion is None:
-        raise DataError(f"{spec}: has no skeleton (a plain feature file); give a BVH or another skeletal file")
-    return data.skeleton_motion.skeleton
-
-
 def run(args: argparse.Namespace) -> int:
     """Check the inputs, maps and output, then retarget and write atomically."""
     from dance_core.checks import check_input_file, check_output_file
     from dance_core.data.files import read_motion_file
+    from dance_core.delivery import is_preset, rig_skeleton
     from dance_core.errors import DataError
     from dance_core.motion.retarget import retarget, rig_frames
     from dance_core.protocols import MotionData
@@ -74,9 +59,9 @@ def run(args: argparse.Namespace) -> int:
     check_input_file(args.motion, None, "motion file")
     for option in ("source_map", "target_map"):
         spec = getattr(args, option)
-        if spec is not None and not _is_preset(spec):
+        if spec is not None and not is_preset(spec):
             check_input_file(spec, f"--{option.replace('_', '-')}", "joint map")
-    target = _target_skeleton(args.to, registry)
+    target = rig_skeleton(args.to, registry, "--to")
     rig_frames(target, args.target_map, args.to)  # a target that cannot be mapped fails before the input is read
     data = read_motion_file(args.motion, registry)
     motion = data.skeleton_motion
@@ -95,9 +80,3 @@ def run(args: argparse.Namespace) -> int:
         print(report.summary())
     print(f"{out} ({result.n_frames} frames at {result.fps:g} fps on {target.name})")
     return 0
-
-
-def _is_preset(spec: str) -> bool:
-    from dance_core.motion.rig_maps import PRESETS
-
-    return spec in PRESETS

@@ -21,7 +21,8 @@ from dance_core.registry import Registry, get_registry
 from dance_core.shards import Shard
 
 #: the options that override a field of the recipe's ``compose:`` section
-SETTINGS = ("samples", "seconds", "temperature", "seed_motion", "texts", "formats")
+SETTINGS = ("samples", "seconds", "temperature", "seed_motion", "texts", "formats", "markers", "rig", "rig_map",
+            "output_fps", "units")
 
 
 @dataclass(frozen=True)
@@ -42,6 +43,11 @@ class ComposeOptions:
     seed_motion: str | Path | None = None
     texts: Sequence[TextSpec | str] | None = None
     formats: Sequence[str] | None = None
+    markers: bool | None = None
+    rig: str | Path | None = None
+    rig_map: str | Path | None = None
+    output_fps: float | None = None
+    units: str | None = None
     overwrite: bool = True
     shard: Shard | None = None
     quiet: bool = False
@@ -61,8 +67,9 @@ class ComposeOptions:
             updates["texts"] = [t if isinstance(t, TextSpec) else TextSpec.parse(t) for t in updates["texts"]]
         if "formats" in updates:
             updates["formats"] = list(updates["formats"])
-        if "seed_motion" in updates:
-            updates["seed_motion"] = str(updates["seed_motion"])
+        for name in ("seed_motion", "rig", "rig_map"):
+            if name in updates:
+                updates[name] = str(updates[name])
         try:
             spec = ComposeSpec.model_validate({**recipe.compose.model_dump(), **updates})
         except ValidationError as exc:
@@ -93,7 +100,8 @@ class MusicInput:
 @dataclass(frozen=True)
 class ComposeInputs:
     """One composition, resolved: the recipe with the options applied, the songs as given, the
-    checkpoint, the seed motion as it will be read (``None``, ``rest`` or a file) and the output folder."""
+    checkpoint, the seed motion as it will be read (``None``, ``rest`` or a file), the output folder, and
+    the rig and its map as they will be read (files as given, else beside the recipe)."""
 
     recipe: Recipe
     options: ComposeOptions
@@ -101,6 +109,8 @@ class ComposeInputs:
     checkpoint: str | None
     seed_motion: str | None
     out_dir: str
+    rig: str | None = None
+    rig_map: str | None = None
 
     def songs(self) -> list[str]:
         """Every song file in order, folders expanded (:meth:`MusicInput.songs`)."""
@@ -121,7 +131,8 @@ def resolve_inputs(
     checkpoint = str(given) if given else (recipe.resolve_path(c.checkpoint) if c.checkpoint else None)
     out_dir = str(options.out_dir) if options.given("out_dir") else c.out_dir
     music = tuple(_music_input(path, registry) for path in paths)
-    return ComposeInputs(recipe, options, music, checkpoint, beside_recipe(c.seed_motion, recipe), out_dir)
+    return ComposeInputs(recipe, options, music, checkpoint, beside_recipe(c.seed_motion, recipe), out_dir,
+                         beside_recipe(c.rig, recipe), beside_recipe(c.rig_map, recipe))
 
 
 def _music_input(path: str, registry: Registry) -> MusicInput:

@@ -18,6 +18,7 @@ from dance_core.compose.generate import batching_note, generate_song, generate_s
 from dance_core.compose.inputs import ComposeInputs, ComposeOptions, reads_text, resolve_inputs
 from dance_core.compose.output import complete, manifest_path, output_stems, output_targets, write_song
 from dance_core.compose.songs import beat_tracker_of, load_model, load_song, seed_motion
+from dance_core.delivery import plan_delivery
 from dance_core.errors import RecipeError
 from dance_core.progress import progress_bar
 from dance_core.recipe.schema import Recipe
@@ -89,6 +90,10 @@ def run_compose(inputs: ComposeInputs) -> Composed:
                           "drop --text or use a recipe with a text feature such as tm2d-small")
     formats = [(entry, recipe.format_options.build(entry))
                for entry in (registry.find("motion-format", f) for f in c.formats)]
+    delivery = plan_delivery(registry, inputs.rig, inputs.rig_map, fps=c.output_fps, units=c.units,
+                             options=(_option(options, "rig", "--rig"), _option(options, "rig_map", "--rig-map"), ""))
+    if c.markers:
+        _need_beat_tracker(recipe, registry, _option(options, "markers", "--markers"))
     stems = dict(zip(songs_in, output_stems(songs_in, c.samples), strict=True))  # every song's, before sharding
     shard = options.shard
     mine = shard.select(songs_in) if shard else songs_in
@@ -96,7 +101,7 @@ def run_compose(inputs: ComposeInputs) -> Composed:
     result = Composed(songs=list(mine), shard=shard)
     todo = []
     for path in mine:
-        targets = output_targets(out, stems[path], formats, bool(c.texts))
+        targets = output_targets(out, stems[path], formats, bool(c.texts), c.markers)
         if not options.overwrite and complete(targets, manifest_path(out, path)):
             sweep_stale_temps(out, [t.name for t in targets])  # what a killed run left beside a whole set
             result.skipped.append(path)
@@ -106,6 +111,9 @@ def run_compose(inputs: ComposeInputs) -> Composed:
         return result
     device = pick_device(c.device, c.threads)
     model, ckpt, stack = load_model(recipe, checkpoint, device)
+    if (delivery.changes or c.markers) and ckpt.motion.skeleton is None:
+        raise RecipeError(f"{recipe.origin}: compose.rig, output_fps, units and markers need a model of skeletal "
+                          f"motion; {checkpoint} makes {ckpt.motion.representation or 'feature'} frames")
     start = model.start_frames()
     seed_values = seed_motion(inputs.seed_motion, ckpt, start, registry, recipe.format_options)
     seed = torch.from_numpy(seed_values)
@@ -132,9 +140,24 @@ def run_compose(inputs: ComposeInputs) -> Composed:
             else:
                 motions = generate_songs(model, songs, seed, recipe, device, progress)
             for path, song, motion in zip(paths, songs, motions, strict=True):
-                result.written.extend(write_song(song, motion, stems[path], out, formats, ckpt, recipe, registry))
+                result.written.extend(write_song(song, motion, stems[path], out, formats, ckpt, recipe, registry,
+                                                 delivery))
                 result.frames += c.samples * song.n_frames
                 result.seconds += c.samples * song.n_frames / recipe.fps
             if bar:
                 bar.update(task, completed=i + len(songs))
     return result
+
+
+def _option(options: ComposeOptions, name: str, flag: str) -> str:
+    """The option a setting came from, or its recipe field (for one-line errors)."""
+    return flag if options.given(name) else f"compose.{name}"
+
+
+def _need_beat_tracker(recipe: Recipe, registry, where: str) -> None:
+    """Markers hold the song's beats: without a registered beat tracker, one line before any work."""
+    from dance_core.data.beat_tracking import beat_tracker
+
+    if beat_tracker(registry) is None:
+        raise RecipeError(f"{where}: the song's beats need a beat tracker (pip install dance-audio); none is "
+                          "installed")

@@ -236,6 +236,19 @@ class ComposeSpec(Strict):
     texts: list[TextSpec] = Field(
         default_factory=list, description="text instructions over spans of each song (models that read text)"
     )
+    markers: bool = Field(
+        False, description="also write each dance's .markers.json sidecar: the song's beats, downbeats and sections "
+        "(needs a beat tracker: dance-audio) and the dance's foot contacts; a glb carries them too"
+    )
+    rig: str | None = Field(
+        None, description="retarget each dance onto this rig before writing: a motion file whose skeleton is your "
+        "character (.bvh, .glb; as given, else relative to the recipe) or dance24 / transflower21"
+    )
+    rig_map: str | None = Field(None, description="the rig's joint map: a preset name or a YAML file (default: detected)")
+    output_fps: PositiveFloat | None = Field(
+        None, le=1000.0, description="frame rate of the files written (resampled); default the model's"
+    )
+    units: Literal["m", "cm"] | None = Field(None, description="length units of the files written (glb: always m)")
 
 
 def _has(parent: dict | list, key: Any) -> bool:
