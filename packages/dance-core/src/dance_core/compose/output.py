@@ -13,19 +13,23 @@ from dance_core.checkpoint import Checkpoint
 from dance_core.checks import refuse_same_names
 from dance_core.compose.songs import Song
 from dance_core.data.motion_info import MotionInfo
+from dance_core.delivery import Delivery, dance_markers, deliver, motion_data
 from dance_core.errors import DanceError, DataError
+from dance_core.motion.markers import SIDECAR, write_markers
 from dance_core.protocols import MotionData
 from dance_core.recipe.schema import Recipe
 from dance_core.registry import Registry
 
 
-def output_targets(out: Path, stems: list[str], formats: list, texts: bool) -> list[Path]:
+def output_targets(out: Path, stems: list[str], formats: list, texts: bool, markers: bool = False) -> list[Path]:
     """Every file one song's dances are written to (its output set), in write order."""
     targets = []
     for stem in stems:
         targets.extend(out / f"{stem}{format_suffix(entry)}" for entry, _ in formats)
         if texts:
             targets.append(out / f"{stem}.texts")
+        if markers:
+            targets.append(out / f"{stem}{SIDECAR}")
     return targets
 
 
@@ -44,14 +48,18 @@ def complete(targets: list[Path], manifest: Path) -> bool:
 
 def write_song(
     song: Song, motion: np.ndarray, stems: list[str], out: Path, formats: list, ckpt: Checkpoint,
-    recipe: Recipe, registry: Registry,
+    recipe: Recipe, registry: Registry, delivery: Delivery | None = None,
 ) -> list[Path]:
-    """Decode, finish (on the beat, grounded: :func:`finished`) and write one song's dances
-    ``(samples, frames, D)`` as one output set (every file or none); returns the motion files written."""
+    """Decode, finish (on the beat, grounded: :func:`finished`), deliver (onto a rig, at a frame rate, in
+    units: :mod:`dance_core.delivery`) and write one song's dances ``(samples, frames, D)`` as one output
+    set (every file or none, markers sidecars with ``compose.markers``); returns the motion files written."""
     with OutputSet(manifest_path(out, song.path)) as files:
         for k, stem in enumerate(stems):
             values = ckpt.stats.motion.invert(motion[k, : song.n_frames])
             data = finished(ckpt.motion.decode(values, recipe.fps, registry), song, ckpt.motion, registry, recipe)
+            data = delivered(data, song, delivery, recipe, registry, stem)
+            if recipe.compose.markers:
+                write_markers(files.path(out / f"{stem}{SIDECAR}"), data.meta["markers"], data.fps)
             data.meta["audio_path"] = song.path
             data.meta["title"] = stem  # previews show the file's own name, not its temporary one
             for entry, fmt in formats:
@@ -59,7 +67,33 @@ def write_song(
             if song.texts:  # the spans beside the dance, for dance evaluate (MPD at text starts)
                 lines = "".join(f"{t.start:.4f}\t{t.end:.4f}\t{' '.join(t.text.split())}\n" for t in song.texts)
                 files.path(out / f"{stem}.texts").write_text(lines, encoding="utf-8")
-        return [p for p in files.targets() if p.suffix != ".texts"]
+        return [p for p in files.targets() if p.suffix != ".texts" and not p.name.endswith(SIDECAR)]
+
+
+def delivered(data: MotionData, song: Song, delivery: Delivery | None, recipe: Recipe, registry: Registry,
+              where: str) -> MotionData:
+    """A finished dance onto the rig, at the frame rate and in the units of ``delivery`` (its frame array
+    then joint positions, as ``dance convert`` writes), with the song's markers in ``meta["markers"]``
+    when ``compose.markers`` asks for them."""
+    motion = data.skeleton_motion
+    if motion is None:
+        if delivery is not None and delivery.changes or recipe.compose.markers:
+            raise DataError(f"{where}: the model's motion has no skeleton; compose.rig, output_fps, units and "
+                            "markers need one")
+        return data
+    if delivery is not None and delivery.changes:
+        motion, note = deliver(motion, delivery, where)
+        meta = {**data.meta, "retarget": note} if note else dict(data.meta)
+        data = motion_data(motion, meta)
+    if recipe.compose.markers:
+        from dance_core.compose.songs import beat_tracker_of
+
+        tracker = beat_tracker_of(recipe, registry) or "flux"
+        try:
+            data.meta["markers"] = dance_markers(motion, registry, song.path, tracker=tracker)
+        except DataError:  # a song with too few beats: its dance's foot contacts only
+            data.meta["markers"] = dance_markers(motion, registry)
+    return data
 
 
 def finished(data: MotionData, song: Song, info: MotionInfo, registry: Registry, recipe: Recipe,
