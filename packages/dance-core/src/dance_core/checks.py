@@ -228,3 +228,24 @@ def nonfinite_reason(positions: Any, names: list[str] | None = None) -> str | No
     value = np.asarray(positions, dtype=np.float64)[tuple(index)]
     kind = "NaN" if np.isnan(value) else "inf"
     return f"{kind} at frame {frame}{joint} ({int(bad.sum())} non-finite values)"
+
+
+def implausible_root(root: Any, fps: float, reach: float = 50.0, speed: float = 20.0) -> str | None:
+    """Why a dance's root path ``(T, 3)`` in metres is not one a body could take (non-finite, farther than
+    ``reach`` m from the origin, faster than ``speed`` m/s between two frames), or None when it could."""
+    import numpy as np
+
+    root = np.asarray(root, dtype=np.float64).reshape(-1, 3)
+    reason = nonfinite_reason(root[:, None], ["root"])
+    if reason is not None:
+        return f"it holds {reason}"
+    far = np.linalg.norm(root, axis=1)
+    if len(far) and far.max() > reach:
+        frame = int(np.argmax(far > reach))
+        return f"its root is {far[frame]:.1f} m from the origin at frame {frame} (a dance stays within {reach:g} m)"
+    fast = np.linalg.norm(np.diff(root, axis=0), axis=1) * fps
+    if len(fast) and fast.max() > speed:
+        frame = int(np.argmax(fast > speed))
+        return (f"its root moves at {fast[frame]:.1f} m/s between frames {frame} and {frame + 1} "
+                f"(a dancer stays under {speed:g} m/s)")
+    return None
