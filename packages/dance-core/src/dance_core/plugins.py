@@ -81,6 +81,19 @@ class DancePluginManager(pluggy.PluginManager):
         return True
 
 
+def plugin_failure(exc: BaseException, label: str) -> str:
+    """What a plugin's code raised, in one line (``SystemExit(0): it tried to end dance``), for any exception,
+    ``SystemExit`` included, so that dance carries on without it. An interrupt (Ctrl-C, SIGTERM, or a plugin
+    raising ``KeyboardInterrupt``) is not carried past: it becomes a ``PluginError`` naming ``label`` that
+    stops dance (exit 130, or 143 for SIGTERM)."""
+    if isinstance(exc, KeyboardInterrupt):
+        raise PluginError(f"{label}: interrupted while it ran ({type(exc).__name__}); dance stops") from exc
+    if isinstance(exc, SystemExit):
+        return f"SystemExit({exc.code!r}): it tried to end dance"
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
 def warn(message: str) -> None:
     """Print one warning line on stderr."""
     print(f"dance: warning: {message}", file=sys.stderr)
@@ -127,8 +140,9 @@ def _load_entry_points(pm: DancePluginManager) -> None:
         pm.dists[ep.name] = dist
         try:
             plugin = ep.load()
-        except Exception as exc:
-            pm.skip(ep.name, f"cannot import {ep.value}: {type(exc).__name__}: {exc}")
+        except BaseException as exc:  # SystemExit or anything else a hostile import raises: one line, never an exit
+            why = plugin_failure(exc, f"plugin {ep.name!r} from {dist[0]} (entry point {ep.value})")
+            pm.skip(ep.name, f"cannot import {ep.value}: {why}")
             continue
         pm.add(plugin, ep.name)
 

@@ -24,7 +24,7 @@ from dance_core import kinds
 from dance_core.contexts import as_kwargs
 from dance_core.contracts import check_component, check_config_type
 from dance_core.errors import PluginError
-from dance_core.plugins import get_plugin_manager, plugin_distribution
+from dance_core.plugins import get_plugin_manager, plugin_distribution, plugin_failure
 
 #: component kind -> the hook that registers it (a view of ``dance_core.kinds.KINDS``)
 KINDS: dict[str, str] = {row.name: row.hook for row in kinds.KINDS.values()}
@@ -40,6 +40,8 @@ def resolve_target(target: Callable[..., Any] | str) -> Callable[..., Any]:
         return getattr(module, attr)
     except (ImportError, AttributeError) as exc:
         raise PluginError(f"cannot import builder {target!r}: {exc}") from exc
+    except BaseException as exc:  # a module that exits or raises on import: one line naming it
+        raise PluginError(f"cannot import builder {target!r}: {plugin_failure(exc, f'builder {target!r}')}") from exc
 
 
 def options_error(exc: ValidationError) -> str:
@@ -134,10 +136,11 @@ class Registry:
                 added: list[Entry] = []
                 try:
                     impl.function(register=self._register_callback(kind, impl.plugin_name, added))
-                except Exception as exc:
+                except BaseException as exc:
                     for entry in added:
                         self._entries[kind].pop(entry.name, None)
-                    why = str(exc) if isinstance(exc, PluginError) else f"{type(exc).__name__}: {exc}"
+                    why = str(exc) if isinstance(exc, PluginError) else plugin_failure(
+                        exc, f"plugin {impl.plugin_name!r} in {hook_name}")
                     failed[impl.plugin_name] = f"failed in {hook_name}: {why}"
         for plugin, why in failed.items():
             for entries in self._entries.values():

@@ -103,16 +103,17 @@ def _sets(p: argparse.ArgumentParser) -> None:
 
 def _plugin_commands(sub) -> None:
     """Subcommands from every plugin's ``register_commands``; one that fails is skipped (strict: error)."""
-    from dance_core.plugins import get_plugin_manager
+    from dance_core.plugins import get_plugin_manager, plugin_failure
 
     pm = get_plugin_manager()
     for impl in pm.hook.register_commands.get_hookimpls():
         try:
             impl.function(subparsers=sub)
-        except Exception as exc:
+        except BaseException as exc:
             if isinstance(exc, DanceError) or impl.plugin_name in DEFAULT_PLUGINS:
                 raise
-            pm.skip(impl.plugin_name, f"failed in register_commands: {type(exc).__name__}: {exc}")
+            why = plugin_failure(exc, f"plugin {impl.plugin_name!r} in register_commands")
+            pm.skip(impl.plugin_name, f"failed in register_commands: {why}")
 
 
 def _compose_parser(sub) -> None:
@@ -264,6 +265,15 @@ def describe(exc: BaseException) -> str:
     return text or type(exc).__name__
 
 
+def _interrupt_code(exc: BaseException | None) -> int:
+    """The exit code of an interrupt (130; 143 for SIGTERM), or 0 when ``exc`` is none."""
+    from dance_core.atomic import Terminated
+
+    if not isinstance(exc, KeyboardInterrupt):
+        return 0
+    return 143 if isinstance(exc, Terminated) else 130
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``dance`` script."""
     if "--strict" in (sys.argv[1:] if argv is None else argv):
@@ -276,7 +286,7 @@ def main(argv: list[str] | None = None) -> int:
         parser = build_parser()
     except DanceError as exc:  # a broken plugin: still one line
         print(f"dance: error: {exc}", file=sys.stderr)
-        return 1
+        return _interrupt_code(exc.__cause__) or 1
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help()
@@ -293,16 +303,14 @@ def main(argv: list[str] | None = None) -> int:
             raise
         for line in str(exc).splitlines() or [type(exc).__name__]:
             print(f"dance: error: {line}", file=sys.stderr)
-        return 1
+        return _interrupt_code(exc.__cause__) or 1
     except BrokenPipeError:  # output piped into head, less...: stop quietly
         sys.stderr.close()
         return 0
     except KeyboardInterrupt as exc:
-        from dance_core.atomic import Terminated
-
-        terminated = isinstance(exc, Terminated)
-        print(f"dance: {'terminated' if terminated else 'interrupted'}", file=sys.stderr)
-        return 143 if terminated else 130
+        code = _interrupt_code(exc)
+        print(f"dance: {'terminated' if code == 143 else 'interrupted'}", file=sys.stderr)
+        return code
     except (OSError, ValueError, MemoryError) as exc:  # not foreseen by a check: still one line
         if args.debug:
             raise
