@@ -3,7 +3,7 @@ and beat locking from the body's own movement, for the bundled models, the synth
 that must fail.
 
     .venv/bin/python benchmarks/realism.py [--mocap ../shared/mocap/cmu-dance] [--songs DIR]
-        [--models default tm2d-small] [--samples 3] [--seconds 30] [--json FILE]
+        [--models default tm2d-small] [--raw default] [--samples 3] [--seconds 30] [--json FILE]
 
 Reference: the CMU takes held out of every training recipe (``HELD_OUT``: both partners of salsa takes
 09 and 10, modern takes 10-12), retargeted onto ``dance24`` at 30 fps by the ``mocap`` dataset. Its
@@ -11,8 +11,12 @@ scale: the distance between the first and second halves of those takes, and from
 (the training pool) to them. Rows: every bundled model on every fixture song (``--samples`` dances each,
 composed by ``dance compose``), the synthetic dancer, and the controls: a still figure, a rigid T-pose
 figure bouncing 4 cm down on every beat and swaying (the statue that passed the old benchmark), and
-the synthetic dancer shifted half a beat off its music (locking must fail; the real takes have no
-music, so the synthetic dancer stands in for a real dance here). Measures: :mod:`dance_core.evaluation.realism`.
+the synthetic dancer and the real-moves choreography (real takes chained onto the songs' beats) shifted
+half a beat off their music (locking must fail). ``--raw`` models are also composed with
+``compose.beat_align=false``: the model's own timing, before compose moves its accents onto the beats.
+*Spread*: the mean distance between two dances of one song (standardised mean statistics), beside the
+same between two takes of one real dancer (CMU subjects 05, 60, 61; their first ``--seconds``).
+Measures: :mod:`dance_core.evaluation.realism`.
 """
 
 from __future__ import annotations
@@ -99,12 +103,12 @@ def song_beats(song: Path) -> np.ndarray:
     return np.asarray(track_beats(load_audio(song, get_registry()), tracker="flux").times, np.float64)
 
 
-def compose(model: str, song: Path, out: Path, samples: int, seconds: float) -> list:
-    """Dances of a bundled model for a song (``dance compose``), read back."""
+def compose(model: str, song: Path, out: Path, samples: int, seconds: float, *sets: str) -> list:
+    """Dances of a bundled model for a song (``dance compose``, ``--set`` each of ``sets``), read back."""
     from dance_core.api import read_motion
 
     cmd = [sys.executable, "-m", "dance_core.cli.main", "-q", "compose", model, "--music", str(song), "-o", str(out),
-           "--samples", str(samples), "--set", f"compose.seconds={seconds}"]
+           "--samples", str(samples), "--set", f"compose.seconds={seconds}", *[a for v in sets for a in ("--set", v)]]
     subprocess.run(cmd, check=True, cwd=ROOT)
     return [read_motion(p, "bvh").skeleton_motion.resample(FPS) for p in sorted(out.glob(f"{song.stem}*.bvh"))]
 
@@ -122,8 +126,18 @@ def real_moves(song: Path, mocap: Path, out: Path, dances: int, seconds: float) 
     return [m.crop(0, int(seconds * FPS)) for m in motions]
 
 
-def row(name: str, windows: np.ndarray, reference: np.ndarray, scale: float, locking=None) -> dict:
-    """One table row: distance, its ratio to the real scale, per-statistic medians, locking."""
+def spread(groups: list[list[np.ndarray]], reference: np.ndarray) -> float:
+    """How different dances of one group (samples of one song, takes of one dancer) are: the mean distance
+    between the mean window statistics of two dances of a group, standardised by the reference."""
+    sd = np.where(reference.std(0) > 1e-9, reference.std(0), 1.0)
+    dists = [np.linalg.norm((a.mean(0) - b.mean(0)) / sd) for g in groups
+             for i, a in enumerate(g) for b in g[i + 1:]]
+    return float(np.mean(dists)) if dists else float("nan")
+
+
+def row(name: str, windows: np.ndarray, reference: np.ndarray, scale: float, locking=None, groups=None) -> dict:
+    """One table row: distance, its ratio to the real scale, per-statistic medians, locking, and how much
+    the dances of one song differ (``groups``)."""
     from dance_core.evaluation import STATISTICS, realism_distance
 
     lo, hi = np.percentile(reference, 10, axis=0), np.percentile(reference, 90, axis=0)
@@ -135,6 +149,8 @@ def row(name: str, windows: np.ndarray, reference: np.ndarray, scale: float, loc
     out["ratio"] = out["distance"] / scale
     if locking:
         out |= {k: float(np.nanmean([lk[k] for lk in locking])) for k in ("locking", "control", "accents_per_beat")}
+    if groups:
+        out["spread"] = spread(groups, reference)
     return out
 
 
@@ -151,6 +167,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--mocap", type=Path, default=ROOT / ".." / "shared" / "mocap" / "cmu-dance")
     parser.add_argument("--songs", type=Path, default=ROOT / ".." / "shared" / "fixtures" / "audio")
     parser.add_argument("--models", nargs="*", default=["default", "tm2d-small"])
+    parser.add_argument("--raw", nargs="*", default=["default"],
+                        help="models also composed with compose.beat_align=false (the model's own timing)")
     parser.add_argument("--samples", type=int, default=3)
     parser.add_argument("--seconds", type=float, default=30.0)
     parser.add_argument("--json", type=Path)
@@ -167,8 +185,12 @@ def main(argv: list[str] | None = None) -> None:
     second = np.concatenate([stats(halves(takes[n])[1]) for n in HELD_OUT])
     scale = (realism_distance(first, second) + realism_distance(second, first)) / 2
     pool = np.concatenate([stats(m) for n, m in takes.items() if n not in HELD_OUT])
+    dancers: dict[str, list[np.ndarray]] = {}
+    for n, m in takes.items():  # takes of one dancer: CMU subject 05 (modern), 60 and 61 (salsa)
+        dancers.setdefault(n.rsplit("_", 1)[0], []).append(stats(m.crop(0, int(args.seconds * FPS))))
     rows = [{"name": "real: first halves vs second halves (the scale)", "distance": scale, "ratio": 1.0,
-             "windows": len(first) + len(second), "inside": len(STATISTICS), "outside": [], "medians": {}},
+             "windows": len(first) + len(second), "inside": len(STATISTICS), "outside": [], "medians": {},
+             "spread": spread([g for g in dancers.values() if len(g) > 1], reference)},
             row("real: the other CMU takes (training pool)", pool, reference, scale)]
     syn = synthetic(6, args.seconds)
     rows.append(row("synthetic dancer", np.concatenate([stats(m) for m, _ in syn]), reference, scale,
@@ -186,31 +208,41 @@ def main(argv: list[str] | None = None) -> None:
     rows.append(row("control: still figure", stats(still(seconds)), reference, scale))
     with tempfile.TemporaryDirectory() as tmp:
         # the choreography the bundled default learns from: real moves on each song's beats (dance synth --mocap)
-        chained, locks = [], []
+        chained, locks, moved = [], [], []
         for song in songs:
             for m in real_moves(song, args.mocap, Path(tmp) / "real-moves", args.samples, seconds):
                 chained.append(stats(m))
-                locks.append(locking_of(m, beats[song.stem][beats[song.stem] < m.duration]))
+                moved.append((m, beats[song.stem][beats[song.stem] < m.duration]))
+                locks.append(locking_of(*moved[-1]))
         rows.append(row(f"real-moves choreography, training pool ({len(chained)} dances)", np.concatenate(chained),
                         reference, scale, locks))
-        for model in args.models:
-            dances, locks = [], []
+        off = [locking_of(m, b + 0.5 * float(np.median(np.diff(b)))) for m, b in moved]
+        rows.append(row("control: real-moves choreography half a beat off", np.concatenate(chained), reference,
+                        scale, off))
+        for model, sets in [(m, ()) for m in args.models] + [(m, ("compose.beat_align=false",)) for m in args.raw]:
+            dances, locks, groups = [], [], []
             for song in songs:
-                for m in compose(model, song, Path(tmp) / model / song.stem, args.samples, seconds):
-                    dances.append(stats(m))
+                group = []
+                for m in compose(model, song, Path(tmp) / model / str(len(sets)) / song.stem, args.samples, seconds,
+                                 *sets):
+                    group.append(stats(m))
                     locks.append(locking_of(m, beats[song.stem][beats[song.stem] < m.duration]))
-            rows.append(row(f"{model} ({len(dances)} dances on {len(songs)} fixture songs)", np.concatenate(dances),
-                            reference, scale, locks))
+                dances += group
+                groups.append(group)
+            label = f"{model}{', raw model (compose.beat_align=false)' if sets else ''}"
+            rows.append(row(f"{label} ({len(dances)} dances on {len(songs)} fixture songs)", np.concatenate(dances),
+                            reference, scale, locks, groups))
     print(f"reference: {len(HELD_OUT)} held-out CMU takes, {len(reference)} windows of 4 s every {HOP} s; "
           f"{time.time() - started:.0f} s")
     print("| dancer | Fréchet distance | × real scale | statistics inside real 10-90 % | outside | body locking "
-          "| wrong-tempo control | accents per beat |")
-    print("|---|---|---|---|---|---|---|---|")
+          "| wrong-tempo control | accents per beat | spread (one song / one dancer) |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         lk = (f"{r['locking']:.2f} | {r['control']:.2f} | {r['accents_per_beat']:.2f}" if "locking" in r
               else "– | – | –")
+        sp = f"{r['spread']:.2f}" if "spread" in r else "–"
         print(f"| {r['name']} | {r['distance']:.1f} | {r['ratio']:.1f} | {r['inside']}/{len(STATISTICS)} | "
-              f"{', '.join(r['outside']) or '–'} | {lk} |")
+              f"{', '.join(r['outside']) or '–'} | {lk} | {sp} |")
     lo, med, hi = (np.percentile(reference, q, axis=0) for q in (10, 50, 90))
     print("\n| statistic | real 10 % | real median | real 90 % | " + " | ".join(r["name"].split(" (")[0]
                                                                                for r in rows[1:]) + " |")

@@ -91,6 +91,32 @@ def test_floating_below_floor_and_ten_second_medians():
     assert Q.quality_scores(mixed, FPS, np.arange(0, 20, 0.5))["worst_stretch"] == pytest.approx(0.15)
 
 
+def test_on_the_balls_of_the_feet_the_soles_are_on_the_floor():
+    """Heels raised 8 cm with the toe tips on the floor: the ankle and ball joints are both above 5 cm,
+    so the joints alone call it floating; the soles grounding finds (its End Sites) are on the floor."""
+    from dance_core.motion.grounding import soles
+
+    skel = dance24()
+    n = 40
+    rot = np.tile([0.0, 0.0, 0.0, 1.0], (n, len(skel), 1))
+    for side in ("L_Ankle", "R_Ankle"):  # the foot pitched down until the toe tip touches the floor again
+        rot[:, skel.names.index(side)] = Rotation.from_euler("x", 50, degrees=True).as_quat()
+    motion = Motion(skel, FPS, np.tile(skel.offsets[0], (n, 1)), rot)
+    heights = soles(motion)
+    lift = heights.min() - soles(Motion(skel, FPS, motion.root, np.tile([0.0, 0, 0, 1], (n, len(skel), 1)))).min()
+    motion.root[:, 1] -= lift  # lowered so that the lowest sole point is on the floor
+    p = motion.positions()
+    feet = (skel.names.index("L_Ankle"), skel.names.index("L_Foot"), skel.names.index("R_Ankle"),
+            skel.names.index("R_Foot"))
+    assert Q.lowest_foot(p, feet).min() > 0.05  # every joint of the feet above 5 cm ...
+    assert Q.floating_fraction(p, feet) == 1.0
+    on_floor = soles(motion)
+    assert np.allclose(on_floor.min(1), 0.0, atol=1e-6)  # ... but the soles are on the floor
+    assert Q.floating_fraction(p, feet, heights=on_floor) == 0.0
+    scores = Q.quality_scores(p, FPS, np.arange(0, 2, 0.5), skel.names, soles=on_floor)
+    assert scores["float"] == 0.0 and scores["worst_stretch"] == pytest.approx(0.0, abs=1e-6)
+
+
 def test_stretches_merge_a_short_remainder():
     assert Q.stretches(1250, 60.0) == [slice(0, 600), slice(600, 1250)]
     assert Q.stretches(1500, 60.0) == [slice(0, 600), slice(600, 1200), slice(1200, 1500)]

@@ -17,7 +17,9 @@ model against reference dances; :func:`quality_scores` collects the per-dance va
   exposes. The detectors see different things: a plain bounce has speed minima at its top *and*
   its bottom, half a beat apart, whose phases cancel (speed locking ~0), while its pelvis-height
   minima come once per beat (hips locking ~1); hence both are reported and the better one counts.
-- **Floor contact**: per foot the lowest of ankle and toe (:func:`foot_heights`); *floating* =
+- **Floor contact**: per foot the lowest of ankle and toe (:func:`foot_heights`), or its sole where the
+  skeleton says where the sole is (``soles``, from grounding: a dancer on the balls of her feet has her
+  toe joint a few cm up while her sole is on the floor); *floating* =
   both feet more than 5 cm above the floor; *below floor* = the lowest foot more than 5 cm under
   it; the median lowest-foot height per 10-s stretch (:func:`stretch_medians`).
 - **Foot skating** (:func:`foot_skating`): horizontal speed of the lowest foot while it touches
@@ -145,19 +147,23 @@ def foot_heights(positions: np.ndarray, feet: tuple[int, int, int, int]) -> np.n
     return np.stack([np.minimum(y[:, 0], y[:, 1]), np.minimum(y[:, 2], y[:, 3])], axis=1)
 
 
-def lowest_foot(positions: np.ndarray, feet: tuple[int, int, int, int]) -> np.ndarray:
-    """``(T,)`` height of the lower foot per frame."""
-    return foot_heights(positions, feet).min(axis=1)
+def lowest_foot(positions: np.ndarray, feet: tuple[int, int, int, int], heights: np.ndarray | None = None
+                ) -> np.ndarray:
+    """``(T,)`` height of the lower foot per frame (of ``heights``, the feet's ``(T, 2)`` sole heights,
+    when given: :func:`dance_core.motion.grounding.soles` knows the soles below the joints)."""
+    return (foot_heights(positions, feet) if heights is None else np.asarray(heights)).min(axis=1)
 
 
-def floating_fraction(positions: np.ndarray, feet: tuple[int, int, int, int], height: float = FLOAT_HEIGHT) -> float:
+def floating_fraction(positions: np.ndarray, feet: tuple[int, int, int, int], height: float = FLOAT_HEIGHT,
+                      heights: np.ndarray | None = None) -> float:
     """Fraction of frames with both feet more than ``height`` above the floor."""
-    return float((lowest_foot(positions, feet) > height).mean())
+    return float((lowest_foot(positions, feet, heights) > height).mean())
 
 
-def below_floor_fraction(positions: np.ndarray, feet: tuple[int, int, int, int], depth: float = BELOW_FLOOR) -> float:
+def below_floor_fraction(positions: np.ndarray, feet: tuple[int, int, int, int], depth: float = BELOW_FLOOR,
+                         heights: np.ndarray | None = None) -> float:
     """Fraction of frames whose lowest foot is under ``depth`` (default 5 cm below the floor)."""
-    return float((lowest_foot(positions, feet) < depth).mean())
+    return float((lowest_foot(positions, feet, heights) < depth).mean())
 
 
 def stretches(n_frames: int, fps: float, seconds: float = STRETCH_SECONDS) -> list[slice]:
@@ -171,10 +177,11 @@ def stretches(n_frames: int, fps: float, seconds: float = STRETCH_SECONDS) -> li
 
 
 def stretch_medians(
-    positions: np.ndarray, fps: float, feet: tuple[int, int, int, int], seconds: float = STRETCH_SECONDS
+    positions: np.ndarray, fps: float, feet: tuple[int, int, int, int], seconds: float = STRETCH_SECONDS,
+    heights: np.ndarray | None = None,
 ) -> np.ndarray:
     """Median lowest-foot height of every ``seconds``-long stretch (see :func:`stretches`)."""
-    low = lowest_foot(positions, feet)
+    low = lowest_foot(positions, feet, heights)
     return np.array([np.median(low[s]) for s in stretches(len(low), fps, seconds)])
 
 
@@ -228,9 +235,10 @@ def speed_drift(positions: np.ndarray, fps: float, seconds: float = DRIFT_SECOND
     return _ratio(float(speed[-n:].mean()), float(speed[:n].mean()))
 
 
-def foot_height_trend(positions: np.ndarray, fps: float, feet: tuple[int, int, int, int]) -> float:
+def foot_height_trend(positions: np.ndarray, fps: float, feet: tuple[int, int, int, int],
+                      heights: np.ndarray | None = None) -> float:
     """Least-squares slope of the lowest-foot height over time, in metres per minute."""
-    low = lowest_foot(positions, feet)
+    low = lowest_foot(positions, feet, heights)
     if len(low) < 2:
         return float("nan")
     t = np.arange(len(low)) / fps / 60.0
@@ -293,8 +301,11 @@ def quality_scores(
     music_beats: np.ndarray,
     names: Sequence[str] | None = None,
     parents: Sequence[int] | None = None,
+    soles: np.ndarray | None = None,
 ) -> dict[str, float]:
-    """Every per-dance measure of this module as one flat dict (see the module docstring).
+    """Every per-dance measure of this module as one flat dict (see the module docstring); the floor
+    measures on ``soles`` ``(T, 2)`` when given (:func:`dance_core.motion.grounding.soles`), else on
+    the lower of each foot's ankle and toe joints.
 
     Keys: the :func:`beat_locking` keys; ``float`` and ``below_floor`` (fractions), ``worst_stretch``
     (highest 10-s median lowest-foot height, m), ``skating`` (m/s), ``speed``, ``acceleration``,
@@ -304,17 +315,17 @@ def quality_scores(
     p = np.asarray(positions, dtype=np.float64)
     feet = feet_of(p, names)
     out = beat_locking(p, fps, music_beats)
-    medians = stretch_medians(p, fps, feet)
+    medians = stretch_medians(p, fps, feet, heights=soles)
     out.update(
-        float=floating_fraction(p, feet),
-        below_floor=below_floor_fraction(p, feet),
+        float=floating_fraction(p, feet, heights=soles),
+        below_floor=below_floor_fraction(p, feet, heights=soles),
         worst_stretch=float(medians.max()) if len(medians) else float("nan"),
         skating=foot_skating(p, fps, feet),
     )
     out.update(smoothness(p, fps))
     out["drift"] = speed_drift(p, fps, DRIFT_SECONDS)
     out["drift_60"] = speed_drift(p, fps, 60.0) if len(p) >= 120 * fps else float("nan")
-    out["foot_trend"] = foot_height_trend(p, fps, feet)
+    out["foot_trend"] = foot_height_trend(p, fps, feet, soles)
     out["bone"] = bone_length_constancy(p, parents) if parents is not None else float("nan")
     out["seconds"] = len(p) / fps
     return out

@@ -5,8 +5,8 @@ NumPy throughout (rotations through ``scipy.spatial.transform``). Quaternions ar
 as in SciPy; positions are Y-up. This package module imports nothing heavy: its names load on first use,
 so plugin entry modules may import ``dance_core.motion.configs``. ``__all__`` is the motion library
 scripts may use (stable within a minor version, like ``dance_core``'s names): ``Motion`` and
-``Skeleton``, the ``dance24`` skeleton, forward kinematics, rotations, rig frames and grounding (``retarget`` itself is
-``dance_core.api.retarget``: the submodule ``motion.retarget`` shares its name).
+``Skeleton``, the ``dance24`` skeleton, forward kinematics, rotations, rig frames, grounding and beat alignment
+(``retarget`` itself is ``dance_core.api.retarget``: the submodule ``motion.retarget`` shares its name).
 """
 
 from __future__ import annotations
@@ -23,8 +23,9 @@ _LAZY: dict[str, str] = {
     **dict.fromkeys(("expmap_to_quat", "quat_rotate", "quat_slerp"), "dance_core.motion.rotations"),
     **dict.fromkeys(("rig_frames", "RigFrames"), "dance_core.motion.retarget"),  # retarget: dance_core.api
     **dict.fromkeys(("renamed", "arms_lowered"), "dance_core.motion.rig_maps"),
-    **dict.fromkeys(("ground", "GroundingOptions", "find_feet", "foot_contacts", "foot_speeds", "sole_heights"),
-                    "dance_core.motion.grounding"),
+    **dict.fromkeys(("ground", "GroundingOptions", "find_feet", "foot_contacts", "foot_speeds", "sole_heights",
+                     "soles"), "dance_core.motion.grounding"),
+    **dict.fromkeys(("align_to_beats", "Alignment"), "dance_core.motion.beat_align"),
 }
 
 __all__ = list(_LAZY)

@@ -246,6 +246,18 @@ def pin_feet(motion: Motion, feet: tuple[int, int, int, int], contacts: np.ndarr
     return replace(motion, rotations=rot)
 
 
+def soles(motion: Motion, options: GroundingOptions | None = None) -> np.ndarray | None:
+    """``(T, 2)`` heights in metres of the left and right soles above ``y = 0``, as grounding sees them
+    (End Sites of the rest pose as the sole where the skeleton has them); None without rotations or
+    recognisable feet."""
+    options = options or GroundingOptions()
+    feet = find_feet(motion.skeleton) if motion.rotations is not None else None
+    if feet is None:
+        return None
+    unit = metres_per_unit(motion.skeleton, feet, options)
+    return sole_heights(motion, motion.positions(end_sites=True), feet, options.sole / unit) * unit
+
+
 def ground(motion: Motion, options: GroundingOptions | None = None) -> tuple[Motion, GroundingReport]:
     """The motion on the floor without foot skating, and a report; unchanged (with a note) when the
     motion has no rotations or its skeleton no recognisable feet."""
