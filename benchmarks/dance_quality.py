@@ -1,7 +1,7 @@
 """Dance quality of a model on real songs: beat locking, floor contact, smoothness, drift, speed.
 
     .venv/bin/python benchmarks/dance_quality.py [RECIPE] [--checkpoint PATH] [--music SONG ...]
-        [--samples N] [--tracker auto|madmom|flux|librosa] [--set FIELD=VALUE ...] [--readme]
+        [--samples N] [--tracker auto|madmom|flux|librosa] [--set FIELD=VALUE ...] [--controls] [--readme]
     .venv/bin/python benchmarks/dance_quality.py --motion-dir DIR [--music SONG ...]   # score BVH files
     .venv/bin/python benchmarks/dance_quality.py --reference                           # the synthetic dancer
 
@@ -265,9 +265,9 @@ def targets(row: Row, ref: dict[str, float]) -> dict[str, bool | None]:
     def judged(ok, *values):
         return None if not all(np.isfinite(v) for v in values) else bool(ok)
 
-    control = max(s["body_control"], 0.05)
-    return {
-        "L": judged(s["body_locking"] >= MIN_LOCKING_RATIO * control, s["body_locking"], s["body_control"]),
+    control = max(s["body_control"], 0.05) if np.isfinite(s["body_control"]) else 0.05
+    return {  # a dance with no accents of its own (a still or rigid figure) fails L
+        "L": bool(np.isfinite(s["body_locking"]) and s["body_locking"] >= MIN_LOCKING_RATIO * control),
         "F": judged(s["float"] <= MAX_FLOAT and s["worst_stretch"] <= MAX_STRETCH, s["float"], s["worst_stretch"]),
         "S": judged(jerk <= MAX_JERK and SPEED_RANGE[0] <= speed <= SPEED_RANGE[1], speed, jerk),
         "D": judged(DRIFT_RANGE[0] <= s["drift"] <= DRIFT_RANGE[1], s["drift"]),
@@ -392,6 +392,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--mocap", type=Path, default=ROOT.parent / "shared" / "mocap" / "cmu-dance",
                         help="real dance takes whose held-out ones are the speed and jerk reference")
     parser.add_argument("--references", type=int, default=4, help="synthetic reference dances (default 4)")
+    parser.add_argument("--controls", action="store_true",
+                        help="also score, per song, a rigid T-pose bobbing 4 cm on its beats (must fail L)")
     parser.add_argument("--name", help="model name in the table (default: the recipe, or the folder)")
     parser.add_argument("--date", default=datetime.date.today().isoformat(), help="date for --readme")
     parser.add_argument("--readme", action="store_true", help="write the table into benchmarks/README.md")
@@ -440,6 +442,16 @@ def main(argv: list[str] | None = None) -> None:
                     file=sys.stderr,
                 )
                 fps = dances[0].fps
+                if args.controls:
+                    from realism import statue
+
+                    from dance_core.motion import soles
+
+                    still = statue(beats, seconds, fps)
+                    figure = Dance(still.positions(), fps, list(still.skeleton.names), list(still.skeleton.parents),
+                                   soles(still))
+                    rows.append(score_dances("control: rigid T-pose bobbing on the beat", song.stem, [figure],
+                                             beats))
     if not rows:
         raise SystemExit("nothing scored")
     fps = fps or 20.0
