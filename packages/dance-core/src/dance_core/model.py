@@ -169,9 +169,13 @@ class ComposedModel(nn.Module):
         generator: torch.Generator | None = None,
         progress: Callable[[int], None] | None = None,
         spans: TextSpans | None = None,
+        forced: tuple[torch.Tensor, torch.Tensor] | None = None,
     ) -> torch.Tensor:
         """Generate ``(B, n_frames, D)`` from streams ``(B, >=n_frames, C)`` and a seed ``(B, S, D)``;
-        ``spans``, the text spans over the streams' frames, reach a head behind a song-level encoder."""
+        ``spans``, the text spans over the streams' frames, reach a head behind a song-level encoder.
+        ``forced``: values ``(B, >=n_frames, D)`` and a boolean mask ``(>=n_frames, D)`` of what is given:
+        those channels of those frames replace what the head makes as soon as it makes them, so the model
+        continues from them (a dance's kept frames, a body part's channels)."""
         w, head = self.window, self.head
         batch = seed.shape[0]
         start = min(self.start_frames(), n_frames)
@@ -179,6 +183,9 @@ class ComposedModel(nn.Module):
             raise ValueError(f"the seed motion needs {start} frames, got {seed.shape[1]}")
         out = seed.new_zeros(batch, n_frames, seed.shape[2])
         out[:, :start] = seed[:, seed.shape[1] - start :]
+        if forced is not None:
+            given, mask = forced[0][:, :n_frames].to(out), forced[1][:n_frames].to(out.device)
+            out[:, :start] = torch.where(mask[:start], given[:, :start], out[:, :start])
         keep = min(keep or head.keep, head.frames)
         streams = {n: x[:, :n_frames] for n, x in streams.items()}
         h = head.history_frames
@@ -201,6 +208,8 @@ class ComposedModel(nn.Module):
             frames, state = head.step(latent, out[:, t - h : t], state, temperature, generator)
             k = min(keep, n_frames - t)
             out[:, t : t + k] = frames[:, :k]
+            if forced is not None:
+                out[:, t : t + k] = torch.where(mask[t : t + k], given[:, t : t + k], out[:, t : t + k])
             t += k
             if progress is not None:
                 progress(t)

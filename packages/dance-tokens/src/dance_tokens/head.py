@@ -56,6 +56,9 @@ class TM2DHead(nn.Module):
 
     history_frames = 0
     latent_tokens = None
+    #: finish() decodes every token again, replacing the frames generated step by step: given frames
+    #: (compose --from/--regenerate) cannot be continued from
+    rewrites_motion = True
 
     def __init__(self, config, motion_dim: int, latent_dim: int):
         super().__init__()

@@ -24,7 +24,9 @@ def compose(args: Namespace) -> int:
         music=args.music, checkpoint=args.checkpoint, out_dir=args.out, samples=args.samples,
         seconds=args.seconds, temperature=args.temperature, seed_motion=args.seed_motion, texts=texts,
         formats=args.formats, markers=args.markers, rig=args.rig, rig_map=args.rig_map, output_fps=args.output_fps,
-        units=args.units, overwrite=args.overwrite, shard=args.shard, quiet=args.quiet,
+        units=args.units, keyframes=args.keyframes, keep_parts=_parts(args.keep_parts), face=args.face,
+        max_turn=args.max_turn, loop=args.loop, from_motion=args.from_motion, regenerate=args.regenerate,
+        overwrite=args.overwrite, shard=args.shard, quiet=args.quiet,
     )
     inputs = api.resolve_inputs(recipe, options)
     _check_compose_inputs(inputs)
@@ -109,6 +111,23 @@ def _compose_line(summary: dict) -> str:
     if summary["shard"]:
         line += f"; shard {summary['shard']} holds {len(summary['songs'])} song(s)"
     return line
+
+
+def _parts(given: list[str] | None) -> dict[str, str] | None:
+    """``--keep PART=MOTION`` options as a mapping; a malformed or repeated part is one line."""
+    from dance_core.errors import RecipeError
+
+    if not given:
+        return None
+    parts: dict[str, str] = {}
+    for spec in given:
+        part, sep, path = spec.partition("=")
+        if not sep or not part.strip() or not path.strip():
+            raise RecipeError(f"--keep {spec!r}: expected PART=MOTION_FILE, e.g. legs=walk.bvh")
+        if part.strip() in parts:
+            raise RecipeError(f"--keep {part.strip()}: given twice")
+        parts[part.strip()] = path.strip()
+    return parts
 
 
 def _text(given: str):

@@ -160,6 +160,18 @@ def _compose_parser(sub) -> None:
     p.add_argument("--fps", dest="output_fps", type=bounded_number(float, 0.0, 1000.0, above=True),
                    help="frame rate of the files written, e.g. 24, 30, 60 (resampled; default: the model's)")
     p.add_argument("--units", choices=("m", "cm"), help="length units of the files written (glb: always m)")
+    p.add_argument("--keyframe", dest="keyframes", action="append", metavar="T=POSE[:FRAME]",
+                   help="pass through frame FRAME (default 0) of the motion file POSE at T seconds (repeatable)")
+    p.add_argument("--keep", dest="keep_parts", action="append", metavar="PART=MOTION",
+                   help="take a body part (legs, arms, upper, lower, root) from a motion file (repeatable)")
+    p.add_argument("--face", choices=("free", "camera"), help="camera: keep facing +Z (default: compose.face)")
+    p.add_argument("--max-turn", type=bounded_number(float, 0.0, above=True), metavar="DEG_PER_S",
+                   help="limit on turning speed in degrees per second")
+    p.add_argument("--loop", action="store_true", default=None, help="the last frame leads into the first")
+    p.add_argument("--from", dest="from_motion", metavar="DANCE",
+                   help="a dance to edit: --regenerate its spans, keep every other frame")
+    p.add_argument("--regenerate", action="append", metavar="START-END",
+                   help="a span of --from's dance to generate again, in seconds (repeatable)")
     p.add_argument("--shard", type=shard_arg, metavar="I/N",
                    help="compose only part I of N (1-based): song k (from 0) of the path-sorted list goes to part "
                         "k mod N + 1")

@@ -27,21 +27,26 @@ def batching_note(model: ComposedModel) -> str | None:
 
 
 def _generate(model: ComposedModel, streams: dict, frames: int, seed: torch.Tensor, rows: int, recipe: Recipe,
-              device: torch.device, generator, spans, progress) -> np.ndarray:
+              device: torch.device, generator, spans, progress, forced=None) -> np.ndarray:
     """The model's generation of ``rows`` dances of ``frames`` frames from one seed motion, with the
-    recipe's sampling options and global torch seed; ``(rows, frames, D)`` as NumPy."""
+    recipe's sampling options and global torch seed; ``(rows, frames, D)`` as NumPy. ``forced``: NumPy
+    values and mask ``(frames, D)`` the model takes as given (``ComposedModel.generate``)."""
     torch.manual_seed(recipe.seed)
+    if forced is not None:
+        values, mask = (torch.from_numpy(np.ascontiguousarray(a)).to(device) for a in forced)
+        forced = (values.unsqueeze(0).expand(rows, -1, -1), mask)
     motion = model.generate(streams, frames, seed.unsqueeze(0).expand(rows, -1, -1).to(device),
                             temperature=recipe.compose.temperature, keep=recipe.compose.keep, generator=generator,
-                            progress=progress, spans=spans)
+                            progress=progress, spans=spans, forced=forced)
     return motion.float().cpu().numpy()
 
 
 def generate_song(
     model: ComposedModel, song: Song, seed: torch.Tensor, recipe: Recipe, device: torch.device,
-    progress=None,
+    progress=None, forced=None,
 ) -> np.ndarray:
-    """``compose.samples`` dances of one song, ``(samples, frames, D)`` normalized.
+    """``compose.samples`` dances of one song, ``(samples, frames, D)`` normalized (``forced``: values and
+    mask ``(frames, D)`` taken as given, :meth:`dance_core.compose.edits.Edits.forced`).
 
     Each song is generated on its own, its samples as one batch, with the random generator seeded
     from the recipe's seed: a song's dance does not depend on the other songs in the call.
@@ -54,7 +59,8 @@ def generate_song(
     spans = None if song.spans is None else TextSpans.stack([song.spans] * c.samples, device)
     generation_threads(model, c.samples, device, c.threads)
     generator = torch.Generator(device=device).manual_seed(recipe.seed)
-    motion = _generate(model, streams, song.n_frames, seed, c.samples, recipe, device, generator, spans, progress)
+    motion = _generate(model, streams, song.n_frames, seed, c.samples, recipe, device, generator, spans, progress,
+                       forced)
     if not np.all(np.isfinite(motion)):
         raise DanceError(f"{song.path or song.name}: the model produced NaN or inf motion; nothing was written")
     return motion

@@ -9,7 +9,7 @@ The CLI checks the result before any work; composition reads it.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,7 +22,7 @@ from dance_core.shards import Shard
 
 #: the options that override a field of the recipe's ``compose:`` section
 SETTINGS = ("samples", "seconds", "temperature", "seed_motion", "texts", "formats", "markers", "rig", "rig_map",
-            "output_fps", "units")
+            "output_fps", "units", "keyframes", "keep_parts", "face", "max_turn", "loop", "from_motion", "regenerate")
 
 
 @dataclass(frozen=True)
@@ -48,6 +48,13 @@ class ComposeOptions:
     rig_map: str | Path | None = None
     output_fps: float | None = None
     units: str | None = None
+    keyframes: Sequence[str] | None = None
+    keep_parts: Mapping[str, str | Path] | None = None
+    face: str | None = None
+    max_turn: float | None = None
+    loop: bool | None = None
+    from_motion: str | Path | None = None
+    regenerate: Sequence[str] | None = None
     overwrite: bool = True
     shard: Shard | None = None
     quiet: bool = False
@@ -67,9 +74,14 @@ class ComposeOptions:
             updates["texts"] = [t if isinstance(t, TextSpec) else TextSpec.parse(t) for t in updates["texts"]]
         if "formats" in updates:
             updates["formats"] = list(updates["formats"])
-        for name in ("seed_motion", "rig", "rig_map"):
+        for name in ("seed_motion", "rig", "rig_map", "from_motion"):
             if name in updates:
                 updates[name] = str(updates[name])
+        for name in ("keyframes", "regenerate"):
+            if name in updates:
+                updates[name] = [str(v) for v in updates[name]]
+        if "keep_parts" in updates:
+            updates["keep_parts"] = {str(k): str(v) for k, v in updates["keep_parts"].items()}
         try:
             spec = ComposeSpec.model_validate({**recipe.compose.model_dump(), **updates})
         except ValidationError as exc:

@@ -14,6 +14,7 @@ from pathlib import Path
 import torch
 
 from dance_core.atomic import sweep_stale_temps
+from dance_core.compose.edits import limits, plan_edits
 from dance_core.compose.generate import batching_note, generate_song, generate_songs
 from dance_core.compose.inputs import ComposeInputs, ComposeOptions, reads_text, resolve_inputs
 from dance_core.compose.output import complete, manifest_path, output_stems, output_targets, write_song
@@ -114,12 +115,20 @@ def run_compose(inputs: ComposeInputs) -> Composed:
     if (delivery.changes or c.markers) and ckpt.motion.skeleton is None:
         raise RecipeError(f"{recipe.origin}: compose.rig, output_fps, units and markers need a model of skeletal "
                           f"motion; {checkpoint} makes {ckpt.motion.representation or 'feature'} frames")
+    labels = {name: _option(options, name, flag) for name, flag in EDIT_OPTIONS.items()}
+    edits = plan_edits(recipe, ckpt, registry, labels)
+    limits(model, edits, _option(options, "from_motion", "--from"))
+    if edits.source is not None and len(todo) > 1:
+        raise RecipeError(f"{_option(options, 'from_motion', '--from')}: one song at a time (the song of the dance "
+                          f"to edit); {len(todo)} given")
     start = model.start_frames()
     seed_values = seed_motion(inputs.seed_motion, ckpt, start, registry, recipe.format_options)
     seed = torch.from_numpy(seed_values)
     tracker = beat_tracker_of(recipe, registry)
     per_batch = c.batch_songs
     note = batching_note(model) if per_batch > 1 and len(todo) > 1 else None
+    if edits.any:
+        per_batch, note = 1, None
     if note:
         per_batch = 1
         if not options.quiet:
@@ -129,24 +138,33 @@ def run_compose(inputs: ComposeInputs) -> Composed:
         task = bar.add_task("compose", total=len(todo), info=f"{len(todo)} song(s) × {c.samples}") if bar else None
         for i in range(0, len(todo), per_batch):
             paths = todo[i : i + per_batch]
-            songs = [load_song(path, stack, ckpt, c.seconds, registry, c.texts, tracker) for path in paths]
+            seconds = edits.source.duration if edits.source is not None else c.seconds
+            songs = [load_song(path, stack, ckpt, seconds, registry, c.texts, tracker) for path in paths]
+            for song in songs:  # keyframes and spans inside the song, before generating
+                edits.check_song(song.n_frames, recipe.fps, song.path)
             n, k = max(song.n_frames for song in songs), len(songs)
             progress = (lambda t, i=i, n=n, k=k: bar.update(task, completed=i + k * t / n)) if bar else None
             if bar:
                 names = ", ".join(song.name for song in songs)
                 bar.update(task, info=f"{names} ({i + len(songs)}/{len(todo)}) × {c.samples}")
             if len(songs) == 1:
-                motions = [generate_song(model, songs[0], seed, recipe, device, progress)]
+                forced = edits.forced(ckpt, registry, songs[0].n_frames)
+                motions = [generate_song(model, songs[0], seed, recipe, device, progress, forced)]
             else:
                 motions = generate_songs(model, songs, seed, recipe, device, progress)
             for path, song, motion in zip(paths, songs, motions, strict=True):
                 result.written.extend(write_song(song, motion, stems[path], out, formats, ckpt, recipe, registry,
-                                                 delivery))
+                                                 delivery, edits))
                 result.frames += c.samples * song.n_frames
                 result.seconds += c.samples * song.n_frames / recipe.fps
             if bar:
                 bar.update(task, completed=i + len(songs))
     return result
+
+
+#: the options that give each edit (else it comes from the recipe's compose:)
+EDIT_OPTIONS = {"keyframes": "--keyframe", "keep_parts": "--keep", "face": "--face", "max_turn": "--max-turn",
+                "loop": "--loop", "from_motion": "--from", "regenerate": "--regenerate"}
 
 
 def _option(options: ComposeOptions, name: str, flag: str) -> str:

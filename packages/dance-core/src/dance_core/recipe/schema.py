@@ -244,11 +244,33 @@ class ComposeSpec(Strict):
         None, description="retarget each dance onto this rig before writing: a motion file whose skeleton is your "
         "character (.bvh, .glb; as given, else relative to the recipe) or dance24 / transflower21"
     )
-    rig_map: str | None = Field(None, description="the rig's joint map: a preset name or a YAML file (default: detected)")
+    rig_map: str | None = Field(
+        None, description="the rig's joint map: a preset name or a YAML file (default: detected)"
+    )
     output_fps: PositiveFloat | None = Field(
         None, le=1000.0, description="frame rate of the files written (resampled); default the model's"
     )
     units: Literal["m", "cm"] | None = Field(None, description="length units of the files written (glb: always m)")
+    keyframes: list[str] = Field(
+        default_factory=list, description="poses the dance passes through, 'SECONDS=POSE_FILE[:FRAME]' (files as "
+        "given, else relative to the recipe); blended in and out over up to 1 s either side"
+    )
+    keep_parts: dict[str, str] = Field(
+        default_factory=dict, description="body parts taken from a given motion, {legs|arms|upper|lower|root: FILE}; "
+        "autoregressive models generate the rest continuing from them"
+    )
+    face: Literal["free", "camera"] = Field(
+        "free", description="camera: keep the dancer facing +Z (slow heading drift removed, quick turns bounded)"
+    )
+    max_turn: PositiveFloat | None = Field(None, description="limit on turning speed, degrees per second")
+    loop: bool = Field(False, description="bend the dance's last second so its last frame leads into its first")
+    from_motion: str | None = Field(
+        None, description="a dance to edit (at the model's skeleton and fps): compose.regenerate's spans are "
+        "generated again, every other frame kept bit for bit"
+    )
+    regenerate: list[str] = Field(
+        default_factory=list, description="spans of from_motion to regenerate, 'START-END' in seconds"
+    )
 
 
 def _has(parent: dict | list, key: Any) -> bool:
