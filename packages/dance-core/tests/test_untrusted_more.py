@@ -238,3 +238,124 @@ def test_a_plugin_hook_that_exits_is_skipped_in_one_line(tmp_path, monkeypatch, 
     out, err = capsys.readouterr()
     lines = [w for w in err.splitlines() if "evil" in w]
     assert len(lines) == 1 and f"failed in {hook}" in lines[0] and "Traceback" not in err, err
+
+
+# --------------------------------------------------------------------- stale locks: a pid reused by another
+
+
+@pytest.fixture
+def other_process():
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)"])
+    yield proc.pid
+    proc.kill()
+    proc.wait()
+
+
+@pytest.mark.skipif(not __import__("os").path.exists("/proc/self/stat"), reason="start times read from /proc")
+@pytest.mark.parametrize("content, taken", [
+    ("{pid} {start}\n", False),  # the holder itself, still running: in use
+    ("{pid}\n", False),  # a lock written before start times: the pid alone decides, as before
+    ("{pid} {boot}:1\n", True),  # the pid is another process now (it started later): stale
+    ("{pid} 00000000:{ticks}\n", True),  # same ticks, another boot
+    ("{pid} garbage\n", True),
+    ("{dead} {start}\n", True),  # no such process
+    ("{self} 00000000:1\n", True),  # our own pid, reused: a trainer that died before us
+])
+def test_a_lock_whose_pid_was_reused_is_taken_over(tmp_path, capsys, other_process, content, taken):
+    import os
+
+    from dance_core.atomic import process_start
+    from dance_core.train import LOCK_FILE, run_lock
+
+    start = process_start(other_process)
+    boot, ticks = start.split(":")
+    lock = tmp_path / "run" / LOCK_FILE
+    lock.parent.mkdir()
+    lock.write_text(content.format(pid=other_process, start=start, boot=boot, ticks=ticks, dead=2**22 + 7,
+                                   self=os.getpid()))
+    if not taken:
+        from dance_core.errors import DanceError
+
+        with pytest.raises(DanceError, match=f"in use by another dance train \\(pid {other_process}"), \
+                run_lock(tmp_path / "run"):
+            pass
+        assert lock.read_text() == content.format(pid=other_process, start=start)  # left as it was
+        return
+    with run_lock(tmp_path / "run"):
+        assert lock.read_text().split() == [str(os.getpid()), process_start(os.getpid())]
+    assert "taking over a stale lock" in capsys.readouterr().err and not lock.exists()
+
+
+# ------------------------------------------------------------------------------- a full disk while training
+
+TINY_SETS = [arg for s in ("data.dataset.songs=4", "data.dataset.seconds=6", "training.steps=40",
+                           "training.batch_size=16", "training.val_every=20", "training.checkpoint_every=20",
+                           "training.log_every=10") for arg in ("--set", s)]
+
+
+def _fill_disk_in(monkeypatch, where: str, after: int) -> None:
+    """Make the ``after``-th call of one writer run out of space, part of its bytes written first."""
+    import errno
+    import os
+
+    import dance_core.train.run_folder as run_folder
+
+    calls = {"n": 0}
+
+    def full(path):
+        calls["n"] += 1
+        if calls["n"] == after:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+
+    if where == "log":
+        real = run_folder._write_all
+
+        def write(fd, data):
+            if calls["n"] + 1 == after:
+                os.write(fd, data[: len(data) // 2])  # half a record reached the disk
+            full("log.jsonl")
+            real(fd, data)
+
+        monkeypatch.setattr(run_folder, "_write_all", write)
+        return
+    real = getattr(run_folder, where)
+
+    def save(path, *args, **kwargs):
+        real(path, *args, **kwargs)  # the file is written, then the disk is full (as for a flush that fails)
+        full(path)
+
+    monkeypatch.setattr(run_folder, where, save)
+
+
+@pytest.mark.parametrize("where, after, words", [
+    ("save_checkpoint", 2, "saving the checkpoint of step 40"),
+    ("save_train_state", 2, "saving the checkpoint of step 40"),
+    ("log", 4, "appending step 30 to log.jsonl"),  # 10, 20, 20 (val), then 30
+    ("save_checkpoint", 1, "no checkpoint was written yet"),
+])
+def test_a_full_disk_while_training_keeps_the_last_good_checkpoint_and_says_so(tmp_path, capsys, monkeypatch, where,
+                                                                               after, words):
+    import json
+
+    from dance_core.checkpoint import load_checkpoint, train_state_info
+
+    run = tmp_path / "run"
+    _fill_disk_in(monkeypatch, where, after)
+    code = main(["-q", "train", "core-synthetic", *TINY_SETS, "-o", str(run)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(err) == 1 and "disk full (No space left on device)" in err[0] and words in err[0], err
+    assert sorted(p.name for p in run.iterdir() if p.name.startswith(".")) == []  # no temporary left
+    for line in (run / "log.jsonl").read_text().splitlines():
+        json.loads(line)  # never half a record
+    if after == 1 and where != "log":
+        assert not (run / "model.safetensors").exists()
+        return
+    assert "last good checkpoint (step 20)" in err[0]
+    assert load_checkpoint(run / "model.safetensors").step == 20
+    assert train_state_info(run / "state.safetensors")[0] == 20
+    monkeypatch.undo()
+    assert main(["-q", "train", "core-synthetic", *TINY_SETS, "-o", str(run), "--resume"]) == 0
+    assert load_checkpoint(run / "model.safetensors").step == 40

@@ -159,6 +159,20 @@ def pid_alive(pid: int) -> bool:
     return True
 
 
+def process_start(pid: int) -> str | None:
+    """When process ``pid`` started (Linux: ``/proc/PID/stat``'s start time in clock ticks since boot, with the
+    boot's id), or None where that cannot be read; with the pid it names one process, even once the pid is
+    reused by another."""
+    try:
+        with open(f"/proc/{int(pid)}/stat", "rb") as fh:
+            fields = fh.read().rsplit(b")", 1)[1].split()
+        with open("/proc/sys/kernel/random/boot_id", encoding="ascii") as fh:
+            boot = fh.read().strip()[:8]
+        return f"{boot}:{int(fields[19])}"
+    except (OSError, ValueError, IndexError):
+        return None
+
+
 def temp_owner(name: str, targets: Iterable[str] | None = None) -> int | None:
     """The pid in a temporary file's name (nested temporaries included), or None when ``name`` is
     not one of ours (or not one for ``targets``, when given)."""

@@ -9,6 +9,7 @@ the same step and run id, so a resume can tell a pair that belongs together. Eve
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import json
 import os
@@ -23,6 +24,7 @@ from dance_core.atomic import (
     OutputSet,
     output_mode,
     pid_alive,
+    process_start,
     refuse_special,
     sigterm_as_interrupt,
     special_file,
@@ -76,13 +78,33 @@ _NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
 
 
 def _lock_holder(path: Path) -> int | None:
+    """The pid a lock holds (its first word), or None."""
+    token = _lock_token(path)
+    return token[0] if token is not None else None
+
+
+def _lock_token(path: Path) -> tuple[int, str | None] | None:
+    """A lock's ``(pid, start time)``: ``PID START`` (see :func:`process_start`), or ``PID`` alone (written before
+    start times, or where they cannot be read); None when the lock is empty, damaged or a link."""
     try:  # never through a link: a lock is a regular file this folder holds
         fd = os.open(path, os.O_RDONLY | _NOFOLLOW)
     except OSError:
         return None
     with os.fdopen(fd, "rb") as fh:
-        text = fh.read(64).decode("utf-8", "replace").strip()
-    return int(text) if text.isdigit() and len(text) < 20 else None
+        words = fh.read(128).decode("utf-8", "replace").split()
+    if not words or not words[0].isdigit() or len(words[0]) >= 20:
+        return None
+    return int(words[0]), (words[1] if len(words) > 1 else None)
+
+
+def _holder_alive(token: tuple[int, str | None]) -> bool:
+    """True when the process that wrote a lock still runs: its pid exists and, when the lock records its start
+    time, the process of that pid started then (a pid reused by another process is not the holder)."""
+    pid, started = token
+    if not pid_alive(pid):
+        return False
+    now = process_start(pid)
+    return started is None or now is None or now == started
 
 
 def _refuse_foreign_lock(path: Path) -> None:
@@ -98,8 +120,9 @@ def _take_lock(path: Path) -> None:
             fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _NOFOLLOW, 0o644)
         except FileExistsError:
             _refuse_foreign_lock(path)
-            holder = _lock_holder(path)
-            if holder is None:
+            token = _lock_token(path)
+            holder = token[0] if token is not None else None
+            if token is None:
                 try:
                     age = time.time() - path.stat().st_mtime
                 except FileNotFoundError:
@@ -107,29 +130,31 @@ def _take_lock(path: Path) -> None:
                 if age < EMPTY_LOCK_GRACE_S:
                     raise DanceError(f"{path.parent}: run folder is being locked by another dance train "
                                      f"({path} is still empty); train into another folder (--out)") from None
-            elif holder != os.getpid() and pid_alive(holder):
+            elif holder != os.getpid() and _holder_alive(token):
                 raise DanceError(f"{path.parent}: run folder is in use by another dance train (pid {holder}, "
                                  f"lock {path}); wait for it or train into another folder (--out)") from None
             from dance_core.plugins import warn
 
-            if _lock_holder(path) != holder:  # another trainer took it over meanwhile: look again
+            if _lock_token(path) != token:  # another trainer took it over meanwhile: look again
                 continue
-            who = f"pid {holder}, no longer running" if holder is not None else "no pid"
+            who = "no pid" if holder is None else (
+                f"pid {holder}, now another process" if pid_alive(holder) and holder != os.getpid()
+                else f"pid {holder}, no longer running")
             _refuse_foreign_lock(path)
             warn(f"{path}: taking over a stale lock ({who})")
             path.unlink(missing_ok=True)
             continue
         except IsADirectoryError:
             raise DataError(f"{path}: is a folder; cannot lock the run folder") from None
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(f"{os.getpid()}\n")
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:  # the pid and when this process started: see _holder_alive
+            fh.write(f"{os.getpid()} {process_start(os.getpid()) or ''}".strip() + "\n")
         return
     raise DanceError(f"{path.parent}: could not lock the run folder ({path} keeps reappearing)")
 
 
 @contextlib.contextmanager
 def run_lock(run_dir: str | Path) -> Iterator[Path]:
-    """Hold the run folder's lock (``train.lock``, created with O_EXCL, holding this pid) while the
+    """Hold the run folder's lock (``train.lock``, created with O_EXCL, holding this pid and its start time) while the
     block runs; a second trainer gets one line naming the holder, a dead holder's lock is taken over
     with a warning. Re-entrant within one process. Yields the lock file's path."""
     run_dir = Path(run_dir)
@@ -149,6 +174,13 @@ def run_lock(run_dir: str | Path) -> Iterator[Path]:
             _held_locks.discard(path)
             if _lock_holder(path) == os.getpid():
                 path.unlink(missing_ok=True)
+
+
+def _write_all(fd: int, data: bytes) -> None:
+    """Write every byte of ``data`` to ``fd`` (``os.write`` may write part of it)."""
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view):]
 
 
 class RunFolder:
@@ -197,8 +229,28 @@ class RunFolder:
             return
         refuse_special(self.log_file)  # appended to in place: never through a link or into a device
         fd = os.open(self.log_file, os.O_WRONLY | os.O_APPEND | os.O_CREAT | _NOFOLLOW, output_mode())
-        with os.fdopen(fd, "a", encoding="utf-8") as fh:
-            fh.write(json.dumps(record) + "\n")
+        try:
+            size = os.fstat(fd).st_size
+            try:
+                _write_all(fd, (json.dumps(record) + "\n").encode("utf-8"))
+            except OSError as exc:
+                with contextlib.suppress(OSError):
+                    os.ftruncate(fd, size)  # never half a record: a resume reads every line
+                raise self._disk_full(exc, f"appending step {record.get('step')} to {LOG_FILE}") or exc
+        finally:
+            os.close(fd)
+
+    def _disk_full(self, exc: OSError, doing: str) -> DataError | None:
+        """One line for a full disk (or quota) while ``doing``, naming the last good checkpoint; None for
+        another error."""
+        if exc.errno not in (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC)):
+            return None
+        try:
+            kept = f"{MODEL_FILE} keeps the last good checkpoint (step {train_state_info(self.state)[0]})"
+        except (OSError, DanceError):
+            kept = "no checkpoint was written yet"
+        return DataError(f"{self.path}: disk full ({exc.strerror or exc}) while {doing}; {kept}; free some space "
+                         "and continue with --resume")
 
     @property
     def previous_model(self) -> Path:
@@ -210,12 +262,15 @@ class RunFolder:
         set is renamed into place model first; a SIGKILL between the two renames (signals cannot be held
         off against it) would leave a new model beside the old state, so the old model is kept, hard
         linked, until both are in place, and :meth:`resume_checkpoint` goes back to it."""
-        with OutputSet() as out:
-            save_checkpoint(out.path(self.model), model, stats, recipe, motion, step, run)
-            save_train_state(out.path(self.state), optimizer, step, run)
-            if self.model.exists():
-                self.previous_model.unlink(missing_ok=True)
-                os.link(self.model, self.previous_model)
+        try:
+            with OutputSet() as out:
+                save_checkpoint(out.path(self.model), model, stats, recipe, motion, step, run)
+                save_train_state(out.path(self.state), optimizer, step, run)
+                if self.model.exists():
+                    self.previous_model.unlink(missing_ok=True)
+                    os.link(self.model, self.previous_model)
+        except OSError as exc:  # a full disk: nothing of this step written, the last pair kept
+            raise self._disk_full(exc, f"saving the checkpoint of step {step}") or exc
         self.previous_model.unlink(missing_ok=True)
         return self.model
 
