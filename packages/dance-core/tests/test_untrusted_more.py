@@ -359,3 +359,68 @@ def test_a_full_disk_while_training_keeps_the_last_good_checkpoint_and_says_so(t
     monkeypatch.undo()
     assert main(["-q", "train", "core-synthetic", *TINY_SETS, "-o", str(run), "--resume"]) == 0
     assert load_checkpoint(run / "model.safetensors").step == 40
+
+
+# ------------------------------------------------------------- valid input once refused: AIFF, names, LANG=C
+
+
+def _dance_bvh(path) -> None:
+    from dance_core.formats.bvh import BvhFormat
+    from dance_core.synth.synthetic_dance import make_clip
+
+    clip = make_clip(0, seed=1, seconds=3.0, bpm=(100, 100), rate=8000, fps=30.0)
+    BvhFormat().write_motion(clip.motion.skeleton_motion, path)
+
+
+@pytest.mark.parametrize("suffix, fmt", [(".aiff", "AIFF"), (".aif", "AIFF"), (".AIFF", "AIFF")])
+def test_an_aiff_song_is_embedded_in_the_preview_as_wav(tmp_path, capsys, suffix, fmt):
+    sf = pytest.importorskip("soundfile")
+    from dance_core.registry import get_registry
+
+    if suffix.lower() not in get_registry().suffixes("audio-reader"):
+        pytest.skip("no installed audio reader reads AIFF (dance-audio does)")
+    import base64
+    import io
+    import re
+
+    song = tmp_path / f"song{suffix}"
+    samples = (0.3 * np.sin(np.arange(8000 * 6) / 5.0)).astype(np.float32)
+    sf.write(song, samples, 8000, format=fmt, subtype="PCM_16")
+    _dance_bvh(tmp_path / "d.bvh")
+    assert main(["render", str(tmp_path / "d.bvh"), "--music", str(song), "-o", str(tmp_path / "d.html")]) == 0
+    page = (tmp_path / "d.html").read_text()
+    raw = base64.b64decode(re.search(r'src="data:audio/wav;base64,([^"]+)"', page).group(1))
+    with wave.open(io.BytesIO(raw)) as w:  # the dance's 3 s and the margin, never the whole 6 s
+        played = np.frombuffer(w.readframes(w.getnframes()), "<i2") / 32768.0
+        assert w.getframerate() == 8000 and 3 * 8000 <= len(played) < 6 * 8000
+    np.testing.assert_allclose(played, samples[: len(played)], atol=2e-4)
+
+
+NAMES = ["sång é", b"\xe9t\xe9 latin-1", "日本語 \u2028 ダンス"]
+LOCALES = [{"LANG": "C", "LC_ALL": "C"}, {"LANG": "C", "LC_ALL": "C", "PYTHONUTF8": "0", "PYTHONCOERCECLOCALE": "0"}]
+
+
+@pytest.mark.parametrize("name", NAMES, ids=["accents", "undecodable", "cjk"])
+@pytest.mark.parametrize("env", LOCALES, ids=["C", "C-no-utf8-mode"])
+def test_non_ascii_file_names_work_under_lang_c(tmp_path, name, env):
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from dance_core.render.html import shown
+
+    stem = os.fsencode(name) if isinstance(name, str) else name
+    folder = os.fsencode(tmp_path) + b"/" + stem
+    os.mkdir(folder)
+    _dance_bvh(os.fsdecode(folder + b"/" + stem + b".bvh"))
+    run_env = {**{k: v for k, v in os.environ.items() if not k.startswith(("LC_", "LANG", "PYTHONUTF8"))}, **env}
+    dance = [sys.executable, "-m", "dance_core.cli.main"]
+    song, page = folder + b"/" + stem + b".wav", folder + b"/" + stem + b".html"
+    for argv in (["synth", song, "--seconds", "2", "--rate", "8000"],
+                 ["render", folder + b"/" + stem + b".bvh", "--music", song, "-o", page]):
+        done = subprocess.run([*dance, *argv], env=run_env, capture_output=True, timeout=120)
+        assert done.returncode == 0, done.stderr.decode("utf-8", "replace")
+    title = shown(Path(os.fsdecode(page)).stem)
+    text = Path(os.fsdecode(page)).read_text(encoding="utf-8")
+    assert os.path.getsize(song) == 44 + 2 * 16000 and f"<title>{title}</title>" in text.replace("&#x27;", "'")

@@ -205,31 +205,37 @@ def cut_music(samples: np.ndarray, rate: int, seconds: float) -> tuple[np.ndarra
 def embedded_audio(music: str | Path, seconds: float) -> tuple[str, bytes]:
     """The MIME type and bytes the player embeds for a dance lasting ``seconds``: the music file
     itself when it is no larger than its cut would be, else its first ``seconds`` +
-    ``AUDIO_MARGIN_S`` decoded and written as mono 16-bit WAV (at most ``PREVIEW_RATE`` Hz)."""
+    ``AUDIO_MARGIN_S`` decoded and written as mono 16-bit WAV (at most ``PREVIEW_RATE`` Hz). A format
+    browsers do not play (AIFF, any other an audio reader reads) is always decoded and embedded as WAV."""
     music = Path(music)
     kind = AUDIO_TYPES.get(music.suffix.lower())
-    if kind is None:
-        raise DataError(f"{music}: cannot embed {music.suffix!r} audio (use {', '.join(sorted(AUDIO_TYPES))})")
     if not music.is_file():
         raise DataError(f"{music}: music file not found" if not music.exists() else f"{music}: not a music file")
     keep = max(float(seconds), 0.0) + AUDIO_MARGIN_S
+    if kind is None:  # no browser plays it: our reader decodes it (an unreadable suffix is one line naming it)
+        return "audio/wav", _cut_wav(music, keep)
     bound = 44 + 2 * math.ceil(keep * PREVIEW_RATE)  # the largest cut WAV
     if music.stat().st_size <= bound:
         return kind, music.read_bytes()
-    from dance_core.data.features import audio_reader_for, check_audio, read_audio
-    from dance_core.registry import get_registry
-
     try:  # only the part embedded is decoded
-        audio = check_audio(read_audio(audio_reader_for(music, get_registry()), music, keep), music)
+        cut = _cut_wav(music, keep)
     except DataError as exc:
         from dance_core.plugins import warn
 
         warn(f"{music}: cannot cut the music to the dance, embedding the whole file ({exc})")
         return kind, music.read_bytes()
-    cut = wav_bytes(*cut_music(audio.samples, audio.rate, keep))
     if len(cut) >= music.stat().st_size:
         return kind, music.read_bytes()
     return "audio/wav", cut
+
+
+def _cut_wav(music: Path, keep: float) -> bytes:
+    """The first ``keep`` seconds of ``music``, decoded (only that part) as mono 16-bit WAV bytes."""
+    from dance_core.data.features import audio_reader_for, check_audio, read_audio
+    from dance_core.registry import get_registry
+
+    audio = check_audio(read_audio(audio_reader_for(music, get_registry()), music, keep), music)
+    return wav_bytes(*cut_music(audio.samples, audio.rate, keep))
 
 
 #: characters escaped in JSON embedded in a script block: none can end the block, open a comment or a
@@ -251,17 +257,28 @@ def fill_page(page: str, fields: dict[str, str]) -> str:
     return re.sub("__([A-Z]+)__", lambda m: fields.get(m.group(1), m.group(0)), page)
 
 
+def shown(text: object) -> str:
+    """``text`` as it can be written as UTF-8: the undecodable bytes of a file name (surrogate escapes, as
+    Python reads names under ``LANG=C``) and any lone surrogate become U+FFFD."""
+    text = str(text)
+    try:
+        return text.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+    except UnicodeEncodeError:
+        return text.encode("utf-8", "replace").decode("utf-8")
+
+
 def player_html(positions: np.ndarray, parents: list[int], names: list[str], fps: float,
                 music: str | Path | None = None, title: str = "dance", source: str | Path = "motion") -> str:
     """The page's text: positions rounded to 1e-3 of the units, music as a base64 data URI holding
     only the part the dance covers (see :func:`embedded_audio`). Every user string (title, joint
     names) is escaped for where it goes; non-finite positions are one line naming ``source``."""
     positions = np.asarray(positions, np.float64)
+    title, names = shown(title), [shown(n) for n in names]
     reason = nonfinite_reason(positions.reshape(len(positions), -1, 3), list(names))
     if reason is not None or not math.isfinite(float(fps)):
         raise DataError(f"{source}: cannot preview a motion that holds {reason or f'fps {fps}'}; nothing written")
     data = {
-        "title": str(title), "fps": float(fps), "frames": int(len(positions)), "names": [str(n) for n in names],
+        "title": title, "fps": float(fps), "frames": int(len(positions)), "names": names,
         "parents": [int(p) for p in parents], "colors": bone_colors(list(names), list(parents)),
         "positions": np.round(positions.reshape(-1), 3).tolist(),
         **framing(positions, fps),
@@ -275,7 +292,7 @@ def player_html(positions: np.ndarray, parents: list[int], names: list[str], fps
         blob = script_json(data)
     except ValueError as exc:  # a non-finite number computed from finite positions (a degenerate framing)
         raise DataError(f"{source}: cannot preview this motion ({exc}); nothing written") from None
-    return fill_page(_PAGE, {"TITLE": html.escape(str(title), quote=True), "AUDIO": audio, "DATA": blob})
+    return fill_page(_PAGE, {"TITLE": html.escape(title, quote=True), "AUDIO": audio, "DATA": blob})
 
 
 def write_html(path: str | Path, positions: np.ndarray, parents: list[int], names: list[str], fps: float,
