@@ -65,6 +65,11 @@ def over_time(clips, reference, minute: float = 60.0) -> list[dict]:
     return out
 
 
+def long_songs(protocol: Protocol) -> TestSet:
+    """The held-out long songs: ``long_songs`` different songs (12, 13, ...), each with its first real dance."""
+    return TestSet(protocol, protocol.long_seconds, protocol.long_songs, tag="long", dances=1)
+
+
 def run(protocol: Protocol, short: TestSet | None = None) -> dict:
     """Every (schedule, seed) run: ``{label: [runs]}``, each with per-minute values on the long songs (and,
     with ``short``, the claims table's metrics on those test songs: the DanceRevolution row)."""
@@ -72,7 +77,7 @@ def run(protocol: Protocol, short: TestSet | None = None) -> dict:
 
     from dance_core.api import load_recipe
 
-    test = TestSet(protocol, protocol.long_seconds, protocol.long_songs, tag="long", dances=1)
+    test = long_songs(protocol)
     reference = reference_clips(protocol)
     protocol = replace(protocol, steps=protocol.dr_steps)
     epoch = max(1, protocol.steps // EPOCHS)

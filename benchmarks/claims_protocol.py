@@ -129,6 +129,7 @@ class TestSet:
         first = TRAIN_SONGS * DANCES
         self.sources = [source(first + s * DANCES + d, seconds, homogeneous)
                         for s in range(songs) for d in range(dances)]
+        distinct_songs(self.sources[::dances])
         folder = protocol.cache / "songs" / f"{tag}-{'homo' if homogeneous else 'multi'}-{seconds:g}s"
         self.songs, self.beats = [], {}
         for src in self.sources[::dances]:
@@ -140,6 +141,13 @@ class TestSet:
             self.songs.append(song)
             self.beats[song.stem] = np.asarray(src.meta["beats"])
         self.real = [joint_clip(s) for s in self.sources]
+
+
+def distinct_songs(sources) -> None:
+    """Refuse a test set that lists one song twice (its dances would count twice)."""
+    names = [src.name.rsplit("-", 1)[0] for src in sources]
+    if len(set(names)) != len(names):
+        raise ValueError(f"claims: the test songs {names} repeat a song; each must be a different song")
 
 
 def reference_clips(protocol: Protocol, homogeneous: bool = False):

@@ -99,3 +99,18 @@ def test_verdict_line_is_read_from_its_source_not_from_the_claims_quote(claims, 
                       "text\n\n- **TM2D** (text) new verdict\n  new continuation\nafter\n", encoding="utf-8")
     assert verdict_line("- **TM2D** (text", readme) == "- **TM2D** (text) new verdict\n  new continuation"
     assert verdict_line("- **Other**", readme) is None
+
+
+def test_the_long_test_songs_are_different_songs(claims, tmp_path):
+    from dataclasses import replace
+
+    protocol_mod, curriculum = claims
+    protocol = replace(protocol_mod.Protocol(cache=tmp_path), long_seconds=6.0, long_songs=2)
+    test = curriculum.long_songs(protocol)
+    assert [s.name for s in test.sources] == ["synth-0012-0", "synth-0013-0"]
+    assert [p.stem for p in test.songs] == ["synth-0012", "synth-0013"] == sorted(test.beats)
+    first, second = (p.read_bytes() for p in test.songs)
+    assert first != second  # two WAVs, not one listed twice
+    assert not np.array_equal(test.real[0].positions, test.real[1].positions)
+    with pytest.raises(ValueError, match="repeat a song"):
+        protocol_mod.distinct_songs([test.sources[0], test.sources[0]])
