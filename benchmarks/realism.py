@@ -130,6 +130,7 @@ def spread(groups: list[list[np.ndarray]], reference: np.ndarray) -> float:
     """How different dances of one group (samples of one song, takes of one dancer) are: the mean distance
     between the mean window statistics of two dances of a group, standardised by the reference."""
     sd = np.where(reference.std(0) > 1e-9, reference.std(0), 1.0)
+    groups = [[w for w in g if len(w)] for g in groups]  # a take shorter than one window has no statistics
     dists = [np.linalg.norm((a.mean(0) - b.mean(0)) / sd) for g in groups
              for i, a in enumerate(g) for b in g[i + 1:]]
     return float(np.mean(dists)) if dists else float("nan")
