@@ -49,7 +49,7 @@ OTHERS = [
 ]
 COLUMNS = [("FMD", "FMD ↓"), ("FID_k", "FID_k ↓"), ("Div_k", "Div_k"), ("Div_sample_pose", "sample div. (m)"),
            ("beat_locking", "beat lock ↑"), ("move_validity", "move valid ↑"), ("PFF", "PFF % ↓"),
-           ("PFF_rel", "PFF_rel % ↓"), ("mpd_20", "MPD_20 (m) ↓")]
+           ("PFF_rel", "PFF_rel % ↓"), ("mpd_20", "MPD_20 (m) ↓"), ("mpd_speed", "its speed (m/s)")]
 
 
 def row(label: str, runs: list[dict], temperature: float = 1.0, note: str = "") -> str:

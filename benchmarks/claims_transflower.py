@@ -44,7 +44,7 @@ def best_temperature(runs: list[dict], temperatures) -> float:
 
 COLS = [("FMD", "FMD ↓"), ("FID_k", "FID_k ↓"), ("Div_sample_pose", "sample div. (m)"),
         ("Div_k", "Div_k"), ("beat_locking", "beat lock ↑"), ("move_validity", "move valid ↑"),
-        ("PFF_rel", "PFF_rel % ↓"), ("mpd_20", "MPD_20 (m) ↓")]
+        ("PFF_rel", "PFF_rel % ↓"), ("mpd_20", "MPD_20 (m) ↓"), ("mpd_speed", "its speed (m/s)")]
 
 
 def table(result: dict, protocol: Protocol) -> list[str]:

@@ -68,7 +68,7 @@ def test_hips_by_name_or_smpl_order_else_a_clear_error():
 def test_a_dance_in_the_reference_predicts_itself_exactly_unless_left_out(dances):
     ref = dances[:4]
     exact = MotionPredictionDistance(exclude_same_name=False)(ref, ref)
-    assert all(v == pytest.approx(0.0, abs=1e-9) for v in exact.values.values())
+    assert all(v == pytest.approx(0.0, abs=1e-9) for k, v in exact.values.items() if "speed" not in k)
     left_out = MotionPredictionDistance()(ref, ref)
     assert all(v > 0.005 for v in left_out.values.values())
     # the predictor proposes k futures, nearest first
@@ -121,6 +121,22 @@ def test_real_continuations_score_low_and_cuts_freezes_and_noise_do_not(dances):
         assert scores["noise"][ft] > 1.3 * gt[ft]
     assert scores["frozen"]["mpd_10"] > 2 * gt["mpd_10"] and scores["frozen"]["mpd_20"] > 1.5 * gt["mpd_20"]
     assert scores["frozen"]["mpd_30"] > gt["mpd_30"]
+    # the energy beside it: the real continuations move like the reference, the frozen ones much less
+    assert gt["mpd_speed"] == pytest.approx(gt["mpd_speed_reference"], rel=0.5)
+    assert scores["frozen"]["mpd_speed"] < 0.7 * gt["mpd_speed"]
+    assert len({v["mpd_speed_reference"] for v in scores.values()}) == 1
+
+
+def test_the_energy_beside_mpd_is_the_mean_joint_speed_of_the_scored_frames(dances):
+    pose = dances[0].positions[0]
+    t = np.arange(len(dances[0].positions))[:, None, None] / FPS
+    gliding = JointClip("glide", pose + t * np.array([0.5, 0.0, 0.0]), FPS, dances[0].joints)  # 0.5 m/s
+    still = JointClip("still", np.broadcast_to(pose, dances[0].positions.shape).copy(), FPS, dances[0].joints)
+    r = MotionPredictionDistance()([gliding, still], dances[1:4])
+    assert r.per_clip["glide"]["mpd_speed"] == pytest.approx(0.5, rel=1e-6)
+    assert r.per_clip["still"]["mpd_speed"] == 0.0
+    assert r.values["mpd_speed"] == pytest.approx(0.25, rel=1e-6)  # both clips have 8 points
+    assert r.values["mpd_speed_reference"] > 0.1
 
 
 def test_points_at_text_starts_else_regularly_with_notes(dances):
@@ -137,7 +153,7 @@ def test_points_at_text_starts_else_regularly_with_notes(dances):
     assert any("texted: 3 of 4 text start(s)" in n for n in r.notes)
     assert any("short: 39 frames at 60 fps are fewer than the 55" in n for n in r.notes)
     assert any("9 point(s) in 2 clip(s) (1 at text starts, 8 at regular times)" in n for n in r.notes)
-    assert set(r.values) == {"mpd_10", "mpd_20", "mpd_30"}
+    assert set(r.values) == {"mpd_10", "mpd_20", "mpd_30", "mpd_speed", "mpd_speed_reference"}
     # the summary is the mean over all points
     mean = (r.per_clip["texted"]["mpd_20"] + 8 * r.per_clip["plain"]["mpd_20"]) / 9
     assert r.values["mpd_20"] == pytest.approx(mean)

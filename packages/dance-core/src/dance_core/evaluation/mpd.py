@@ -12,6 +12,12 @@ dances whose ``past`` frames are nearest to the dance's last ``past`` frames, in
 anchored at the last past frame (:func:`dance_core.evaluation.canon.canonicalize`: root over the
 origin, hips facing +Z), propose their next ``future`` frames in that body frame. Distances are
 mean per-joint Euclidean distances in metres.
+
+**Bias: stillness wins.** The distance is absolute, so a dance that barely moves has little room to
+leave any predicted future: the near-static model of the claims benchmark scored lower MPD than the
+real dances. Every result therefore carries the motion's energy beside it: ``mpd_speed``, the mean
+joint speed (m/s) over the frames the points score (their ``past + future`` windows), and
+``mpd_speed_reference``, the reference dances' mean joint speed. MPD compares dances of like energy.
 """
 
 from __future__ import annotations
@@ -24,7 +30,7 @@ import numpy as np
 
 from dance_core.errors import DataError
 from dance_core.evaluation.canon import canonicalize, hip_indices
-from dance_core.evaluation.clips import check_positions, require_clips, resampled, same_joint_count
+from dance_core.evaluation.clips import check_positions, joint_speeds, require_clips, resampled, same_joint_count
 from dance_core.protocols import JointClip, MetricResult
 
 WHAT = "MPD"
@@ -210,21 +216,29 @@ class MotionPredictionDistance:
             reasons = "; ".join(n.removeprefix(f"{WHAT}: ") for n in notes)
             raise DataError(f"{WHAT}: no clip has an evaluation point ({reasons})")
         errors = self._errors(gen, points, predictor)
+        speeds = self._speeds(gen, points, fps)
         per_clip = {}
         for i, clip in enumerate(gen):
-            mine = [e for e, pt in zip(errors, points, strict=True) if pt.clip == i]
+            mine = [k for k, pt in enumerate(points) if pt.clip == i]
             if mine:
-                per_clip[clip.name] = {**self._values(np.array(mine)), "points": float(len(mine))}
+                per_clip[clip.name] = {**self._values(errors[mine], speeds[mine]), "points": float(len(mine))}
         by_source = Counter(pt.source for pt in points)
         notes.append(
             f"{WHAT}: {len(points)} point(s) in {len(per_clip)} clip(s) ("
             + ", ".join(f"{n} at {'text starts' if s == 'text' else 'regular times'}" for s, n in by_source.items())
             + f"); {self.k} futures matched among {predictor.windows} reference windows at {fps:g} fps"
         )
-        return MetricResult(self._values(errors), per_clip, notes)
+        values = {**self._values(errors, speeds), "mpd_speed_reference": _mean_speed(predictor, fps)}
+        return MetricResult(values, per_clip, notes)
 
-    def _values(self, errors: np.ndarray) -> dict[str, float]:
-        return {f"mpd_{a}": float(errors[:, j].mean()) for j, a in enumerate(self.at)}
+    def _values(self, errors: np.ndarray, speeds: np.ndarray) -> dict[str, float]:
+        out = {f"mpd_{a}": float(errors[:, j].mean()) for j, a in enumerate(self.at)}
+        return {**out, "mpd_speed": float(speeds.mean())}
+
+    def _speeds(self, gen: list[JointClip], points: list[Point], fps: float) -> np.ndarray:
+        """Per point, the mean joint speed (m/s) over its ``past + future`` frames."""
+        return np.array([joint_speeds(gen[pt.clip].positions[pt.t1 - self.past : pt.t1 + self.future], fps)[1:].mean()
+                         for pt in points])
 
     def _errors(self, gen: list[JointClip], points: list[Point], predictor: MatchingPredictor) -> np.ndarray:
         """``(points, len(at))``: per point, the smallest mean joint distance to a predicted future."""
@@ -244,6 +258,11 @@ class MotionPredictionDistance:
             guess = predictor.continuation(int(clips[q, j]), int(starts[q, j]))[frames]
             best[q] = np.minimum(best[q], np.linalg.norm(guess - actual[q], axis=-1).mean(axis=-1))
         return best
+
+
+def _mean_speed(predictor: MatchingPredictor, fps: float) -> float:
+    """Mean joint speed (m/s) over every frame of the predictor's reference clips."""
+    return float(np.mean(np.concatenate([joint_speeds(p, fps)[1:].ravel() for _, p, _ in predictor.clips])))
 
 
 def build_mpd(config, **_) -> MotionPredictionDistance:
