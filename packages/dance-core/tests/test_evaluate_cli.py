@@ -38,8 +38,7 @@ def test_evaluate_writes_report_table_and_plots(synthetic_set, capsys):
     out = synthetic_set / "out" / "report.json"
     rc = main(
         [
-            "-q",
-            "evaluate",
+            "evaluate",  # not -q: the table is shown
             "--generated",
             str(synthetic_set / "generated"),
             "--reference",

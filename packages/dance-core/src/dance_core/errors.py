@@ -25,3 +25,16 @@ class DataError(DanceError):
 
 class TrainingError(DanceError):
     """A training run that cannot go on (for instance a non-finite loss)."""
+
+
+def describe_error(exc: BaseException) -> str:
+    """One line for an error: a ``DanceError``'s own words, an ``OSError`` as ``FILE: reason``, out of memory
+    with what to try, anything else its message (or its type's name)."""
+    if isinstance(exc, MemoryError):
+        detail = f" ({exc})" if str(exc) else ""
+        return f"out of memory{detail}; try a shorter song, fewer songs or smaller sizes"
+    if isinstance(exc, OSError) and not isinstance(exc, DanceError) and exc.filename is not None:
+        where = f"{exc.filename} -> {exc.filename2}" if exc.filename2 is not None else str(exc.filename)
+        return f"{where}: {exc.strerror or type(exc).__name__}"
+    text = " ".join(line.strip() for line in str(exc).splitlines() if line.strip())
+    return text or type(exc).__name__

@@ -26,7 +26,7 @@ def compose(args: Namespace) -> int:
         formats=args.formats, markers=args.markers, rig=args.rig, rig_map=args.rig_map, output_fps=args.output_fps,
         units=args.units, keyframes=args.keyframes, keep_parts=_parts(args.keep_parts), face=args.face,
         max_turn=args.max_turn, loop=args.loop, from_motion=args.from_motion, regenerate=args.regenerate,
-        overwrite=args.overwrite, shard=args.shard, quiet=args.quiet,
+        overwrite=args.overwrite, shard=args.shard, quiet=args.quiet, keep_going=args.keep_going,
     )
     inputs = api.resolve_inputs(recipe, options)
     _check_compose_inputs(inputs)
@@ -34,14 +34,19 @@ def compose(args: Namespace) -> int:
     result = api.compose(inputs)
     wall = time.perf_counter() - start
     summary = _compose_summary(inputs.recipe, result, inputs.out_dir, wall)
+    failed = f"{len(result.failed)} song(s) failed, the others written" if result.failed else None
     if args.json:
-        print(json.dumps(summary, indent=2))
-        return 0
+        print(json.dumps({**summary, **({"error": failed} if failed else {})}, indent=2))
+        return 1 if failed else 0
     for path in result.written:
         print(path)
     if not args.quiet:
         print(_compose_line(summary), file=sys.stderr)
-    return 0
+    for song, why in result.failed:  # --keep-going: listed at the end, one line each
+        print(f"dance: error: {why if why.startswith(str(song)) else f'{song}: {why}'}", file=sys.stderr)
+    if failed:
+        print(f"dance: error: {failed} (--keep-going)", file=sys.stderr)
+    return 1 if failed else 0
 
 
 #: the command-line option that gives each composition input (else it comes from the recipe's compose:)
@@ -87,7 +92,8 @@ def _compose_summary(recipe, result, out: str, wall: float) -> dict:
     frames = result.frames
     return {
         "songs": [str(s) for s in result.songs],
-        "written_songs": [str(s) for s in result.songs if s not in set(result.skipped)],
+        "written_songs": [str(s) for s in result.songs
+                          if s not in set(result.skipped) and s not in {f for f, _ in result.failed}],
         "skipped_songs": [str(s) for s in result.skipped],
         "shard": str(result.shard) if result.shard else None,
         "samples": recipe.compose.samples,
@@ -97,6 +103,7 @@ def _compose_summary(recipe, result, out: str, wall: float) -> dict:
         "out": str(out),
         "wall_seconds": round(wall, 3),
         "frames_per_second": round(frames / wall, 1) if frames and wall > 0 else None,
+        "failed_songs": [{"song": str(song), "error": why} for song, why in result.failed],
     }
 
 
@@ -191,7 +198,8 @@ def train(args: Namespace) -> int:
     if os.environ.get("RANK", "0") != "0":
         return 0
     val = f", validation loss {result.val_loss:.4f}" if result.val_loss is not None else ""
-    print(f"trained {result.steps} steps: loss {result.first_loss:.4f} -> {result.last_loss:.4f}{val}")
+    if not args.quiet:  # -q: the checkpoint's path alone
+        print(f"trained {result.steps} steps: loss {result.first_loss:.4f} -> {result.last_loss:.4f}{val}")
     print(result.checkpoint)
     return 0
 

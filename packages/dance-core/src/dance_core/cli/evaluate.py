@@ -134,11 +134,13 @@ def run(args: argparse.Namespace) -> int:
 
         sys.stdout.write(out.read_text(encoding="utf-8"))
     console = Console(stderr=args.json)
-    console.print(R.render_table(report, f"dance evaluate: {len(generated)} generated vs {len(reference)} reference"))
-    for name, reason in report.skipped.items():
-        console.print(f"[yellow]{name}: n/a:[/] {reason}")
-    for note in report.notes:
-        console.print(f"[dim]note: {note}[/]")
+    if not args.quiet:  # -q: the report's path alone
+        console.print(R.render_table(report, f"dance evaluate: {len(generated)} generated vs {len(reference)} "
+                                             "reference"))
+        for name, reason in report.skipped.items():
+            console.print(f"[yellow]{name}: n/a:[/] {reason}")
+        for note in report.notes:
+            console.print(f"[dim]note: {note}[/]")
     console.print(f"report: {out}")
     R.check_selected(report, args.metrics)
     R.check_scored(report)  # nothing scored (e.g. every clip NaN): one line, exit 1

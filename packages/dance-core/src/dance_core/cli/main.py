@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import io
+import json
 import os
 import sys
 import textwrap
@@ -11,7 +13,7 @@ import textwrap
 from dance_core.checks import bounded_number
 from dance_core.cli import commands
 from dance_core.cli.checks import shard_arg, smpl_model_option, use_smpl_model
-from dance_core.errors import DanceError
+from dance_core.errors import DanceError, describe_error
 from dance_core.plugins import DEFAULT_PLUGINS, ENV_STRICT
 
 
@@ -73,6 +75,7 @@ COMMON_FLAGS = (
     (("--debug",), "show tracebacks for errors"),
     (("-q", "--quiet"), "no progress bars or summaries"),
     (("--strict",), f"stop on a broken plugin instead of skipping it ({ENV_STRICT}=1)"),
+    (("--json",), "print one JSON object on stdout, errors included ({\"error\": ..., \"exit_code\": N})"),
 )
 
 
@@ -177,6 +180,9 @@ def _compose_parser(sub) -> None:
                         "k mod N + 1")
     p.add_argument("--overwrite", action="store_true",
                    help="compose songs whose output files all exist already (default: skip them)")
+    p.add_argument("--keep-going", action="store_true",
+                   help="a song that fails (unreadable, an implausible dance) is listed at the end and the others "
+                        "are written; exit code 1 when any failed")
     p.add_argument("--json", action="store_true", help="print one JSON summary instead of the file names")
     _sets(p)
     p.set_defaults(run=commands.compose)
@@ -267,14 +273,7 @@ def build_parser() -> Parser:
 
 def describe(exc: BaseException) -> str:
     """One line for an unexpected ``OSError``/``ValueError``/``MemoryError``, naming its file when it has one."""
-    if isinstance(exc, MemoryError):
-        detail = f" ({exc})" if str(exc) else ""
-        return f"out of memory{detail}; try a shorter song, fewer songs or smaller sizes"
-    if isinstance(exc, OSError) and exc.filename is not None:
-        where = f"{exc.filename} -> {exc.filename2}" if exc.filename2 is not None else str(exc.filename)
-        return f"{where}: {exc.strerror or type(exc).__name__}"
-    text = " ".join(line.strip() for line in str(exc).splitlines() if line.strip())
-    return text or type(exc).__name__
+    return describe_error(exc)
 
 
 def _interrupt_code(exc: BaseException | None) -> int:
@@ -287,7 +286,54 @@ def _interrupt_code(exc: BaseException | None) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``dance`` script."""
+    """Entry point of the ``dance`` script; with ``--json`` (any command) one JSON object on stdout, errors
+    included: a command's own JSON as it prints it, else ``{"output": [lines]}``; on an error ``"error"`` (its
+    line) and ``"exit_code"``, the exit code kept. Warnings and progress stay on stderr."""
+    if "--json" not in (sys.argv[1:] if argv is None else argv):
+        return _main(argv)
+    out, err = io.StringIO(), _Tee(sys.stderr)
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = _main(argv)
+        except SystemExit as exc:  # a usage error (2), --help or --version (0)
+            code = exc.code if isinstance(exc.code, int) else 1
+    text = out.getvalue()
+    try:
+        data, native = json.loads(text), True
+    except ValueError:
+        data, native = {"output": text.splitlines()}, False
+    if code == 0 and native:
+        sys.stdout.write(text)  # the command's own JSON, unchanged
+        return code
+    if code != 0:
+        data = data if isinstance(data, dict) else {"output": data}
+        seen = err.seen.strip().splitlines()
+        errors = [line.split(": error: ", 1)[1] for line in seen if ": error: " in line]
+        data.setdefault("error", "; ".join(errors) if errors else (seen[-1] if seen else f"exit code {code}"))
+        data["exit_code"] = code
+    print(json.dumps(data, indent=2))
+    return code
+
+
+class _Tee(io.TextIOBase):
+    """stderr as it is, also kept (``seen``) for ``--json``'s error line."""
+
+    def __init__(self, stream) -> None:
+        self.stream, self.seen = stream, ""
+
+    def write(self, text: str) -> int:  # noqa: D102
+        self.seen += text
+        return self.stream.write(text)
+
+    def flush(self) -> None:  # noqa: D102
+        self.stream.flush()
+
+    def isatty(self) -> bool:  # noqa: D102
+        return self.stream.isatty()
+
+
+def _main(argv: list[str] | None = None) -> int:
+    """``dance`` without ``--json``'s wrapping."""
     if "--strict" in (sys.argv[1:] if argv is None else argv):
         os.environ[ENV_STRICT] = "1"  # read when the plugin manager is built, before parsing
         from dance_core import plugins, registry

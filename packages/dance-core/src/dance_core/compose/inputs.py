@@ -31,7 +31,8 @@ class ComposeOptions:
 
     ``music``: song files or folders of them; ``texts``: ``TextSpec``s or their text form
     (``"20-30: a person jumps"``); ``overwrite=False`` skips a song whose output files all exist;
-    ``shard``: compose only this part of the songs; ``quiet``: no progress bar or notes.
+    ``shard``: compose only this part of the songs; ``quiet``: no progress bar or notes; ``keep_going``: a song
+    that fails (unreadable, an implausible dance) is listed in ``Composed.failed`` and the others are written.
     """
 
     music: Sequence[str | Path] | None = None
@@ -58,6 +59,7 @@ class ComposeOptions:
     overwrite: bool = True
     shard: Shard | None = None
     quiet: bool = False
+    keep_going: bool = False
 
     def given(self, name: str) -> bool:
         """True when the caller gave ``name`` (else the recipe's value holds)."""

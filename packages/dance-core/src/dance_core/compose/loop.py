@@ -20,7 +20,7 @@ from dance_core.compose.inputs import ComposeInputs, ComposeOptions, reads_text,
 from dance_core.compose.output import complete, manifest_path, output_stems, output_targets, write_song
 from dance_core.compose.songs import beat_tracker_of, load_model, load_song, seed_motion
 from dance_core.delivery import plan_delivery
-from dance_core.errors import RecipeError
+from dance_core.errors import DanceError, RecipeError, describe_error
 from dance_core.progress import progress_bar
 from dance_core.recipe.schema import Recipe
 from dance_core.registry import get_registry
@@ -30,7 +30,7 @@ from dance_core.shards import Shard
 
 @dataclass
 class Composed:
-    """What one composition call did: files written, songs written and skipped, frames generated."""
+    """What one composition call did: files written, songs written, skipped and failed, frames generated."""
 
     written: list[Path] = field(default_factory=list)
     songs: list[str] = field(default_factory=list)
@@ -38,6 +38,7 @@ class Composed:
     frames: int = 0
     seconds: float = 0.0
     shard: Shard | None = None
+    failed: list[tuple[str, str]] = field(default_factory=list)  #: (song, why) with ``keep_going``
 
 
 def compose(
@@ -138,25 +139,30 @@ def run_compose(inputs: ComposeInputs) -> Composed:
         task = bar.add_task("compose", total=len(todo), info=f"{len(todo)} song(s) × {c.samples}") if bar else None
         for i in range(0, len(todo), per_batch):
             paths = todo[i : i + per_batch]
-            seconds = edits.source.duration if edits.source is not None else c.seconds
-            songs = [load_song(path, stack, ckpt, seconds, registry, c.texts, tracker) for path in paths]
-            for song in songs:  # keyframes and spans inside the song, before generating
-                edits.check_song(song.n_frames, recipe.fps, song.path)
-            n, k = max(song.n_frames for song in songs), len(songs)
-            progress = (lambda t, i=i, n=n, k=k: bar.update(task, completed=i + k * t / n)) if bar else None
-            if bar:
-                names = ", ".join(song.name for song in songs)
-                bar.update(task, info=f"{names} ({i + len(songs)}/{len(todo)}) × {c.samples}")
-            if len(songs) == 1:
-                forced = edits.forced(ckpt, registry, songs[0].n_frames)
-                motions = [generate_song(model, songs[0], seed, recipe, device, progress, forced)]
-            else:
-                motions = generate_songs(model, songs, seed, recipe, device, progress)
-            for path, song, motion in zip(paths, songs, motions, strict=True):
-                result.written.extend(write_song(song, motion, stems[path], out, formats, ckpt, recipe, registry,
-                                                 delivery, edits))
-                result.frames += c.samples * song.n_frames
-                result.seconds += c.samples * song.n_frames / recipe.fps
+            try:
+                seconds = edits.source.duration if edits.source is not None else c.seconds
+                songs = [load_song(path, stack, ckpt, seconds, registry, c.texts, tracker) for path in paths]
+                for song in songs:  # keyframes and spans inside the song, before generating
+                    edits.check_song(song.n_frames, recipe.fps, song.path)
+                n, k = max(song.n_frames for song in songs), len(songs)
+                progress = (lambda t, i=i, n=n, k=k: bar.update(task, completed=i + k * t / n)) if bar else None
+                if bar:
+                    names = ", ".join(song.name for song in songs)
+                    bar.update(task, info=f"{names} ({i + len(songs)}/{len(todo)}) × {c.samples}")
+                if len(songs) == 1:
+                    forced = edits.forced(ckpt, registry, songs[0].n_frames)
+                    motions = [generate_song(model, songs[0], seed, recipe, device, progress, forced)]
+                else:
+                    motions = generate_songs(model, songs, seed, recipe, device, progress)
+                for path, song, motion in zip(paths, songs, motions, strict=True):
+                    result.written.extend(write_song(song, motion, stems[path], out, formats, ckpt, recipe, registry,
+                                                     delivery, edits))
+                    result.frames += c.samples * song.n_frames
+                    result.seconds += c.samples * song.n_frames / recipe.fps
+            except (DanceError, OSError, ValueError) as exc:  # --keep-going: this song listed, the others written
+                if not options.keep_going:
+                    raise
+                result.failed.extend((path, describe_error(exc)) for path in paths)
             if bar:
                 bar.update(task, completed=i + len(songs))
     return result

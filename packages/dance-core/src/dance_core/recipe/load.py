@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import copy
+import difflib
+import typing
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from dance_core.contexts import FormatOptions
 from dance_core.errors import PluginError, RecipeError
@@ -139,15 +141,42 @@ def _list_item(node: list[Any], part: str, assignment: str) -> Any:
     return node[int(part)]
 
 
-def _render(errors: list[dict[str, Any]], smap: SourceMap, prefix: tuple[Any, ...] = ()) -> list[str]:
+def _render(errors: list[dict[str, Any]], smap: SourceMap, prefix: tuple[Any, ...] = (),
+            model: Any = Recipe) -> list[str]:
     lines = []
     for err in errors:
         loc = prefix + tuple(err["loc"])
         msg = err["msg"].removeprefix("Value error, ")
         if err["type"] == "missing":
             msg = "required field is missing"
+        elif err["type"] == "extra_forbidden" and err["loc"]:
+            msg = f"unknown field{_did_you_mean(str(err['loc'][-1]), _field_names(model, err['loc'][:-1]))}"
         lines.append(f"{smap.where(loc)}: {dotted(loc) or '(top level)'}: {msg}")
     return lines
+
+
+def _did_you_mean(word: str, known: list[str]) -> str:
+    """`` (did you mean 'steps'?)`` when ``word`` is close to one of ``known`` (difflib), else ``""``."""
+    close = difflib.get_close_matches(word, known, n=3, cutoff=0.6)
+    return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
+
+
+def _field_names(model: Any, path: tuple[Any, ...]) -> list[str]:
+    """The fields (and aliases) of the pydantic model found at ``path`` inside ``model``; list indices and
+    mapping keys (``features.music.0``) are stepped over."""
+    for part in path:
+        field = getattr(model, "model_fields", {}).get(part) if isinstance(part, str) else None
+        if field is not None:
+            model = _model_in(field.annotation)
+    fields = getattr(model, "model_fields", {})
+    return [*fields, *(f.alias for f in fields.values() if f.alias)]
+
+
+def _model_in(annotation: Any) -> Any:
+    """The pydantic model an annotation holds (itself, or inside ``list[...]``, ``dict[str, ...]``, ``| None``)."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    return next((m for m in map(_model_in, typing.get_args(annotation)) if m is not None), None)
 
 
 def _component_problems(
@@ -161,7 +190,7 @@ def _component_problems(
     try:
         return [], entry, entry.validate(options)
     except ValidationError as exc:
-        return _render(exc.errors(), smap, loc), entry, None
+        return _render(exc.errors(), smap, loc, entry.config), entry, None
     except PluginError as exc:
         return [f"{smap.where(loc)}: {dotted(loc)}: {exc}"], entry, None
 
@@ -265,7 +294,8 @@ def load_recipe(
             path = Path(str(registry.get("recipe", str(path)).target))
         else:
             bundled = ", ".join(registry.names("recipe")) or "none installed"
-            raise RecipeError(f"{path}: no such recipe file or bundled recipe (bundled: {bundled})")
+            hint = _did_you_mean(str(path), registry.names("recipe"))
+            raise RecipeError(f"{path}: no such recipe file or bundled recipe{hint} (bundled: {bundled})")
     smap = SourceMap()
     data = _read_with_bases(path, smap, registry)
     for assignment in overrides:
