@@ -137,3 +137,33 @@ def test_the_test_extra_and_the_pinned_environment_hold_hypothesis():
     assert any(r.startswith("hypothesis") for r in extra["test"])
     pins = (ROOT / "requirements-dev.txt").read_text()
     assert "\nhypothesis==" in pins and "packages/dance-core[plots,render,test]" in pins
+
+
+def _complete(line: str, tmp_path) -> list[str]:
+    import os
+    import subprocess
+    import sys
+
+    out = tmp_path / "completions.txt"
+    env = {**os.environ, "COMP_LINE": line, "COMP_POINT": str(len(line)), "_ARGCOMPLETE": "1",
+           "_ARGCOMPLETE_STDOUT_FILENAME": str(out)}
+    subprocess.run([sys.executable, "-m", "dance_core.cli.main"], env=env, capture_output=True, timeout=120)
+    return out.read_text().replace("\x0b", "\n").split() if out.exists() else []
+
+
+@pytest.mark.parametrize("line, expected", [
+    ("dance comp", ["compose"]),
+    ("dance compose tm2", ["tm2d", "tm2d-small"]),
+    ("dance recipe validate core-", ["core-dance", "core-synthetic"]),
+    ("dance compose default --keep", ["--keep-going", "--keep"]),
+])
+def test_shell_completion_of_commands_options_and_recipes(tmp_path, line, expected):
+    pytest.importorskip("argcomplete")
+    assert set(expected) <= set(_complete(line, tmp_path))
+
+
+def test_install_completion_prints_the_shell_code(capsys):
+    pytest.importorskip("argcomplete")
+    with pytest.raises(SystemExit) as done:
+        main(["--install-completion"])
+    assert done.value.code == 0 and "complete" in capsys.readouterr().out

@@ -134,7 +134,7 @@ def _compose_parser(sub) -> None:
             "dance compose default --music songs/ -o out --shard $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT",
         ),
     )
-    p.add_argument("recipe", help="recipe file or bundled recipe name (dance recipe list)")
+    p.add_argument("recipe", help="recipe file or bundled recipe name (dance recipe list)").completer = _recipes
     p.add_argument("--music", nargs="+", metavar="SONG|FOLDER",
                    help="songs to dance to, or folders of them (default: compose.music)")
     p.add_argument("--checkpoint", help="model checkpoint (default: compose.checkpoint)")
@@ -202,7 +202,7 @@ def _train_parser(sub) -> None:
             "torchrun --nproc_per_node=4 $(which dance) train core-synthetic --out runs/demo",
         ),
     )
-    p.add_argument("recipe", help="recipe file or bundled recipe name (dance recipe list)")
+    p.add_argument("recipe", help="recipe file or bundled recipe name (dance recipe list)").completer = _recipes
     p.add_argument("-o", "--out", metavar="DIR", help="run folder (default: training.output)")
     p.add_argument("--resume", action="store_true", help="continue the run in the run folder")
     p.add_argument("--overwrite", action="store_true",
@@ -231,7 +231,8 @@ def _recipe_parsers(sub) -> None:
     ):
         p = rsub.add_parser(name, help=text, description=text[:1].upper() + text[1:] + ".",
                             epilog=_examples(example))
-        p.add_argument("recipe", help="recipe file or bundled recipe name (dance recipe list)")
+        arg = p.add_argument("recipe", help="recipe file or bundled recipe name (dance recipe list)")
+        arg.completer = _recipes.completer = _recipes
         _sets(p)
         p.set_defaults(run=fn)
     p = rsub.add_parser("schema", help="print the JSON Schema of recipes",
@@ -241,6 +242,28 @@ def _recipe_parsers(sub) -> None:
     p = rsub.add_parser("list", help="list bundled recipes", epilog=_examples("dance recipe list --json"))
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(run=commands.recipe_list)
+
+
+def _recipes(prefix: str = "", **_) -> list[str]:
+    """Bundled recipe names (and YAML files here) for tab completion."""
+    from pathlib import Path
+
+    from dance_core.registry import get_registry
+
+    return [*get_registry().names("recipe"), *(str(p) for p in Path(".").glob(f"{prefix}*.y*ml"))]
+
+
+class _Completion(argparse.Action):
+    """``--install-completion``: argcomplete's shell code for ``dance`` on stdout, then exit."""
+
+    def __call__(self, parser, namespace, values, option_string=None):  # noqa: D102
+        try:
+            import argcomplete
+        except ImportError:
+            parser.exit(1, "dance: error: --install-completion: argcomplete is not installed "
+                           "(pip install 'dance-core[completion]')\n")
+        sys.stdout.write(argcomplete.shellcode(["dance"]))
+        parser.exit(0)
 
 
 def build_parser() -> Parser:
@@ -256,6 +279,9 @@ def build_parser() -> Parser:
         ),
     )
     parser.add_argument("--version", action="version", version=f"dance {version('dance-core')}")
+    parser.add_argument("--install-completion", action=_Completion, nargs=0,
+                        help="print bash/zsh completion for dance (needs dance-core[completion]); "
+                             "add it with: eval \"$(dance --install-completion)\"")
     for flags, text in COMMON_FLAGS:
         parser.add_argument(*flags, action="store_true", help=text)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
@@ -345,6 +371,10 @@ def _main(argv: list[str] | None = None) -> int:
     except DanceError as exc:  # a broken plugin: still one line
         print(f"dance: error: {exc}", file=sys.stderr)
         return _interrupt_code(exc.__cause__) or 1
+    with contextlib.suppress(ImportError):  # tab completion (dance-core[completion]): acts only when the shell asks
+        import argcomplete
+
+        argcomplete.autocomplete(parser)
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help()
