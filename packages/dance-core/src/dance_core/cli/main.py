@@ -232,7 +232,7 @@ def _recipe_parsers(sub) -> None:
         p = rsub.add_parser(name, help=text, description=text[:1].upper() + text[1:] + ".",
                             epilog=_examples(example))
         arg = p.add_argument("recipe", help="recipe file or bundled recipe name (dance recipe list)")
-        arg.completer = _recipes.completer = _recipes
+        arg.completer = _recipes
         _sets(p)
         p.set_defaults(run=fn)
     p = rsub.add_parser("schema", help="print the JSON Schema of recipes",
