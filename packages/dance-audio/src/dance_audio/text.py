@@ -118,11 +118,23 @@ class WordTokens(SpanRows):
         return self.max_words
 
     def span_features(self, texts: tuple[TextSpan, ...]) -> np.ndarray:
-        """``(len(texts), max_words)`` ids of each instruction."""
+        """``(len(texts), max_words)`` ids of each instruction; words the vocabulary does not hold (read as
+        ``<unk>``) are named in one warning line, once per process for each span's text."""
         rows = np.zeros((len(texts), self.max_words), dtype=np.float32)
         for k, span in enumerate(texts):
             rows[k] = self.vocab.encode(span.text, self.max_words)
+            unknown = sorted({w for w in tokenize(span.text) if w not in self.vocab.ids})
+            if unknown and span.text not in _warned:
+                import sys
+
+                _warned.add(span.text)
+                print(f"dance: warning: text {span.text!r}: the model does not know {', '.join(map(repr, unknown))} "
+                      f"(read as {UNK}); its vocabulary has {len(self.vocab) - len(SPECIALS)} words", file=sys.stderr)
         return rows
+
+
+#: span texts already warned about (a text is warned about once per process, not once per window)
+_warned: set[str] = set()
 
 
 def load_glove(path: str | Path, dim: int) -> dict[str, np.ndarray]:
