@@ -17,7 +17,19 @@ import math
 from dataclasses import replace
 
 import numpy as np
-from claims_protocol import MEMO, Protocol, TestSet, cached, generate, reference_clips, spread, train_to_plateau
+from claims_protocol import (
+    MEMO,
+    Protocol,
+    TestSet,
+    cached,
+    ci,
+    decide,
+    difference,
+    generate,
+    reference_clips,
+    spread,
+    train_to_plateau,
+)
 
 EPOCHS = 10
 Q_END = 30
@@ -129,34 +141,48 @@ def table(result: dict) -> list[str]:
     return lines
 
 
-def verdict(result: dict, protocol: Protocol) -> str:
-    """The DanceRevolution verdict line (freezing over the whole long songs; FID_k in the last minute)."""
+RULE = ("for each schedule, the 95 % bootstrap intervals over seeds of PFF_rel(teacher forcing) − PFF_rel(schedule) "
+        "over the whole long songs and of FID_k(teacher forcing) − FID_k(schedule) in their last minute; holds when "
+        "both lie above 0 for every schedule, does not hold when no schedule is better on both and one is worse "
+        "on either (an interval wholly below 0); inconclusive otherwise, and when no model froze at all (the "
+        "freezing half of the claim has nothing to measure)")
+
+
+def verdict(result: dict, protocol: Protocol, reduced: str = "") -> str:
+    """The DanceRevolution verdict line (freezing over the whole long songs; FID_k in the last minute), with
+    bootstrap intervals of each schedule's differences from teacher forcing and the rule."""
 
     def whole(runs, key):
         return [np.mean([m[key] for m in r["minutes"] if m[key] is not None] or [np.nan]) for r in runs]
 
-    if not all(result.values()):
+    if not result or not all(result.values()):
         return "- **DanceRevolution**: inconclusive — not every schedule's runs finished within the budget."
     tf = result["teacher forcing"]
     last = max(len(r["minutes"]) for r in tf) - 1
-    tf_rel, tf_fid = spread(whole(tf, "PFF_rel"))[0], spread(_per_minute(tf, "FID_k", last))[0]
-    parts, better = [], 0
+    parts, better, worse = [], 0, 0
     for label, runs in result.items():
         if label == "teacher forcing":
             continue
-        rel, fid = spread(whole(runs, "PFF_rel"))[0], spread(_per_minute(runs, "FID_k", last))[0]
-        parts.append(f"{label} PFF_rel {rel:.3g} %, last-minute FID_k {fid:.3g}")
-        better += int(rel < tf_rel and fid < tf_fid)
-    numbers = (f"over {protocol.long_seconds / 60:.3g}-min songs, teacher forcing PFF_rel {tf_rel:.3g} %, last-minute "
-               f"FID_k {tf_fid:.3g}; " + "; ".join(parts) + f" ({protocol.seeds} seeds × {protocol.samples} samples)")
+        rel = difference(whole(tf, "PFF_rel"), whole(runs, "PFF_rel"))
+        fid = difference(_per_minute(tf, "FID_k", last), _per_minute(runs, "FID_k", last))
+        readings = (decide(rel), decide(fid))
+        better += int(readings == ("above", "above"))
+        worse += int("below" in readings)
+        parts.append(f"{label}: PFF_rel gain {ci(rel)} %, last-minute FID_k gain {ci(fid)}")
+    seeds = min(len(r) for r in result.values())
+    tf_rel, tf_fid = spread(whole(tf, "PFF_rel"))[0], spread(_per_minute(tf, "FID_k", last))[0]
+    numbers = (f"over {protocol.long_seconds / 60:.3g}-min songs, teacher forcing PFF_rel {tf_rel:.3g} %, "
+               f"last-minute FID_k {tf_fid:.3g}; "
+               "gains over teacher forcing (positive: the schedule is better) " + "; ".join(parts)
+               + f" ({seeds} seeds × {protocol.samples} samples)")
     frozen = any(v and v > 0 for runs in result.values() for v in whole(runs, "PFF_rel"))
     if not frozen:
         word = "inconclusive (no model froze under any schedule, so curriculum has nothing to prevent here)"
     elif better == len(parts):
         word = "holds"
-    elif better == 0:
+    elif better == 0 and worse:
         word = "does not hold"
     else:
-        word = f"inconclusive ({better} of {len(parts)} schedules beat teacher forcing on both)"
+        word = f"inconclusive ({better} of {len(parts)} schedules better on both)"
     return ("- **DanceRevolution** (curriculum training freezes less and stays closer to real dancing over long "
-            f"songs than pure teacher forcing): {numbers}: {word}.")
+            f"songs than pure teacher forcing): {numbers}: **{word}**{reduced}. Rule: {RULE}.")

@@ -9,6 +9,12 @@ a validation plateau: validation every ``val_every`` steps, stop after ``patienc
 improvement, keep the best checkpoint, never past the step budget. The first ``SEED_SECONDS`` of every
 dance (generated or real) are cut before scoring: that is where the rest-pose seed sits.
 
+Choices (the flow's temperature) are made on **selection songs** (``SelectionSet``: songs after the
+test songs, never scored for a claim) before the test songs are composed, at the chosen value only
+(``choose_then_score``). Differences between arms are judged by percentile-bootstrap intervals over the
+training seeds (``bootstrap``, numpy, fixed seed) against a rule written down before the run
+(``decide``).
+
 Each finished run writes one JSON file into the cache folder, so a re-run skips it.
 """
 
@@ -36,9 +42,10 @@ METRICS = ["fid-k", "div-k", "fmd", "freezing", "beat-locking", "sample-diversit
 class Protocol:
     """The sizes of one run of the protocol (``quick()`` for the smoke path)."""
 
-    seeds: int = 3
+    seeds: int = 5
     samples: int = 5
     test_songs: int = 4
+    select_songs: int = 2
     train_seconds: float = 24.0
     test_seconds: float = 20.0
     long_seconds: float = 300.0
@@ -54,9 +61,9 @@ class Protocol:
     @classmethod
     def quick(cls, cache: Path) -> Protocol:
         """CI sizes: one seed, two samples, two short test songs, a few steps."""
-        return cls(seeds=1, samples=2, test_songs=2, train_seconds=12.0, test_seconds=8.0, long_seconds=16.0,
-                   long_songs=1, steps=6, dr_steps=6, val_every=3, patience=1, batch_size=8, temperatures=(0.75, 1.0),
-                   cache=cache)
+        return cls(seeds=1, samples=2, test_songs=2, select_songs=1, train_seconds=12.0, test_seconds=8.0,
+                   long_seconds=16.0, long_songs=1, steps=6, dr_steps=6, val_every=3, patience=1, batch_size=8,
+                   temperatures=(0.75, 1.0), cache=cache)
 
     def dataset(self, homogeneous: bool = False) -> str:
         """The training set override: 12 songs, 3 dances each (all dancers, or the homogeneous control)."""
@@ -122,11 +129,11 @@ class TestSet:
     """Test songs (WAV files written once into the cache) with their real dances and beats."""
 
     def __init__(self, protocol: Protocol, seconds: float, songs: int, homogeneous: bool = False, tag: str = "test",
-                 dances: int = DANCES):
+                 dances: int = DANCES, first_song: int = TRAIN_SONGS):
         from dance_core.synth import write_clip
 
         self.seconds, self.homogeneous = seconds, homogeneous
-        first = TRAIN_SONGS * DANCES
+        first = first_song * DANCES
         self.sources = [source(first + s * DANCES + d, seconds, homogeneous)
                         for s in range(songs) for d in range(dances)]
         distinct_songs(self.sources[::dances])
@@ -141,6 +148,17 @@ class TestSet:
             self.songs.append(song)
             self.beats[song.stem] = np.asarray(src.meta["beats"])
         self.real = [joint_clip(s) for s in self.sources]
+
+
+def selection_set(protocol: Protocol, test: TestSet) -> TestSet:
+    """The selection songs: ``select_songs`` songs after the test songs (never a test or training song), with
+    their real dances; where temperatures (and any other choice) are chosen."""
+    select = TestSet(protocol, test.seconds, protocol.select_songs, test.homogeneous, tag="select",
+                     first_song=TRAIN_SONGS + protocol.test_songs)
+    shared = {p.stem for p in select.songs} & {p.stem for p in test.songs}
+    if shared:
+        raise ValueError(f"claims: selection songs {sorted(shared)} are test songs")
+    return select
 
 
 def distinct_songs(sources) -> None:
@@ -329,3 +347,61 @@ def pm(values, digits: int = 3) -> str:
     if m is None:
         return "n/a"
     return f"{m:.{digits}g} ± {s:.1g}" if len(values) > 1 else f"{m:.{digits}g}"
+
+
+# ---------------------------------------------------------------- choices and statistics
+
+
+def choose_then_score(temperatures, on_selection, on_test, key: str = "FMD") -> dict:
+    """Choose the temperature with the lowest ``key`` on the selection songs, then score the test songs at
+    that one temperature only: ``{"selection": {T: metrics}, "chosen": T, "temperatures": {T: metrics}}``.
+    ``on_selection(t)`` composes and scores the selection songs, ``on_test(t)`` the test songs; the test
+    songs are never composed at a temperature that was not chosen, so no choice can see them."""
+    temperatures = list(temperatures)
+    picked = {f"{t:g}": on_selection(t) for t in temperatures} if len(temperatures) > 1 else {}
+    chosen = min(temperatures, key=lambda t: picked[f"{t:g}"].get(key, float("inf"))) if picked else temperatures[0]
+    return {"selection": picked, "chosen": chosen, "temperatures": {f"{chosen:g}": on_test(chosen)}}
+
+
+def scored(run: dict) -> dict:
+    """A run's test-song metrics at the temperature it chose (1 for runs without a choice)."""
+    return run["temperatures"].get(f"{run.get('chosen', 1.0):g}", {})
+
+
+#: percentile-bootstrap draws and interval
+DRAWS, LEVEL, STATS_SEED = 4000, 0.95, 0
+
+
+def bootstrap(statistic, *arms, draws: int = DRAWS, level: float = LEVEL, seed: int = STATS_SEED):
+    """``statistic(*means)`` over the arms' means, and its percentile-bootstrap interval: every draw
+    resamples each arm (its seeds' values) with replacement, independently. ``(estimate, low, high)``;
+    ``(None, None, None)`` when an arm has no finite value."""
+    arms = [np.asarray([float(x) for x in a if x is not None and np.isfinite(x)]) for a in arms]
+    if any(len(a) == 0 for a in arms):
+        return None, None, None
+    rng = np.random.default_rng(seed)
+    means = [a[rng.integers(0, len(a), (draws, len(a)))].mean(axis=1) for a in arms]
+    values = np.asarray(statistic(*means), dtype=float)
+    tail = 100 * (1 - level) / 2
+    estimate = float(statistic(*[np.array([a.mean()]) for a in arms])[0])
+    return estimate, float(np.percentile(values, tail)), float(np.percentile(values, 100 - tail))
+
+
+def difference(a, b, **kw):
+    """``mean(a) - mean(b)`` with its bootstrap interval (independent arms: different training runs)."""
+    return bootstrap(lambda x, y: x - y, a, b, **kw)
+
+
+def decide(interval) -> str:
+    """``above`` when the whole interval is above 0, ``below`` when wholly below, else ``straddles`` (and
+    ``n/a`` for no interval): the one reading every verdict rule uses."""
+    _, low, high = interval
+    if low is None:
+        return "n/a"
+    return "above" if low > 0 else "below" if high < 0 else "straddles"
+
+
+def ci(interval, digits: int = 3) -> str:
+    """``estimate [low, high]`` for a verdict line."""
+    est, low, high = interval
+    return "n/a" if est is None else f"{est:+.{digits}g} [{low:+.{digits}g}, {high:+.{digits}g}]"

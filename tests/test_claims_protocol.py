@@ -114,3 +114,98 @@ def test_the_long_test_songs_are_different_songs(claims, tmp_path):
     assert not np.array_equal(test.real[0].positions, test.real[1].positions)
     with pytest.raises(ValueError, match="repeat a song"):
         protocol_mod.distinct_songs([test.sources[0], test.sources[0]])
+
+
+def test_the_temperature_is_chosen_on_selection_songs_and_the_test_songs_see_one(claims, tmp_path):
+    protocol_mod, _ = claims
+    calls = []
+    select_fmd = {0.5: 2.0, 0.75: 1.0, 1.0: 3.0}
+    test_fmd = {0.5: 0.1, 0.75: 5.0, 1.0: 0.2}  # the test songs would prefer 0.5: they are never asked
+    out = protocol_mod.choose_then_score(
+        (0.5, 0.75, 1.0), lambda t: calls.append(("select", t)) or {"FMD": select_fmd[t]},
+        lambda t: calls.append(("test", t)) or {"FMD": test_fmd[t]})
+    assert out["chosen"] == 0.75 and out["temperatures"] == {"0.75": {"FMD": 5.0}}
+    assert [c for c in calls if c[0] == "test"] == [("test", 0.75)] and calls[-1] == ("test", 0.75)
+    assert protocol_mod.scored(out) == {"FMD": 5.0}
+    assert protocol_mod.scored({"temperatures": {"1": {"a": 1}}}) == {"a": 1}
+    single = protocol_mod.choose_then_score((1.0,), lambda t: calls.append("never"), lambda t: {"FMD": 1.0})
+    assert single["chosen"] == 1.0 and "never" not in calls
+    from claims_runs import run_family
+
+    with pytest.raises(ValueError, match="selection songs"):
+        run_family(protocol_mod.Protocol(cache=tmp_path), "k", "transflower-small", [], 0, None, [], (0.5, 1.0))
+
+
+def test_selection_songs_follow_the_test_songs(claims, tmp_path):
+    from dataclasses import replace
+
+    protocol_mod, _ = claims
+    protocol = replace(protocol_mod.Protocol(cache=tmp_path), test_songs=2, select_songs=1)
+    test = protocol_mod.TestSet(protocol, 6.0, protocol.test_songs, dances=1)
+    select = protocol_mod.selection_set(protocol, test)
+    assert [p.stem for p in test.songs] == ["synth-0012", "synth-0013"]
+    assert [p.stem for p in select.songs] == ["synth-0014"] and len(select.real) == 3
+
+
+def test_bootstrap_intervals_are_seeded_and_cover_the_difference(claims):
+    protocol_mod, _ = claims
+    a, b = [3.0, 3.2, 2.9, 3.1, 3.0], [1.0, 1.1, 0.9, 1.2, 1.0]
+    est, low, high = protocol_mod.difference(a, b)
+    assert est == pytest.approx(np.mean(a) - np.mean(b)) and low < est < high
+    assert low > 1.8 and high < 2.3 and protocol_mod.decide((est, low, high)) == "above"
+    assert protocol_mod.difference(a, b) == (est, low, high)  # the same draws every time
+    assert protocol_mod.decide(protocol_mod.difference(b, a)) == "below"
+    overlap = protocol_mod.difference([1.0, 2.0, 3.0], [1.5, 2.5, 2.0])
+    assert protocol_mod.decide(overlap) == "straddles"
+    assert protocol_mod.difference([None], [1.0]) == (None, None, None)
+    assert protocol_mod.decide((None, None, None)) == "n/a"
+    assert protocol_mod.ci((0.5, 0.25, 0.75)) == "+0.5 [+0.25, +0.75]"
+
+
+def run(fmd, div, chosen=0.75):
+    t = f"{chosen:g}"
+    return {"chosen": chosen, "temperatures": {t: {"FMD": fmd, "Div_sample_pose": div}}}
+
+
+def test_transflower_rule_judges_diversity_against_the_real_dances(claims, monkeypatch):
+    protocol_mod, _ = claims
+    import claims_transflower as tf
+
+    def result(flow_div, control_regression=1.7):
+        jitter = [0.0, 0.02, -0.02, 0.01, -0.01]
+        return {
+            "multimodal": {"gt": {"Div_sample_pose": 0.25},
+                           "flow": [run(1.5 + j, flow_div + j) for j in jitter],
+                           "regression": [run(3.2 + j, 0.0, 1.0) for j in jitter]},
+            "control": {"gt": {}, "flow": [run(1.6 + j, 0.3) for j in jitter],
+                        "regression": [run(control_regression + j, 0.0, 1.0) for j in jitter]}}
+
+    protocol = protocol_mod.Protocol()
+    assert "**holds**" in tf.verdict(result(0.30), protocol)
+    # ten times the real dances' diversity is farther from them than the regression head's zero
+    line = tf.verdict(result(2.5), protocol)
+    assert "does not hold (diversity nearer the real dances' goes the other way)" in line and "Rule:" in line
+    # the gap widens on the control
+    assert "gap closes on the control goes the other way" in tf.verdict(result(0.3, 5.0), protocol)
+
+
+def test_curriculum_rule_on_bootstrap_intervals(claims):
+    protocol_mod, curriculum = claims
+
+    def runs(pff, fid):
+        return [{"minutes": [{"PFF_rel": pff + j, "FID_k": fid + j}, {"PFF_rel": pff + j, "FID_k": fid + 5 + j}]}
+                for j in (0.0, 0.1, -0.1, 0.2, -0.2)]
+
+    protocol = protocol_mod.Protocol()
+    labels = [label for label, _ in curriculum.schedules()]
+    better = {label: runs(10.0, 100.0) if label == "teacher forcing" else runs(1.0, 50.0) for label in labels}
+    line = curriculum.verdict(better, protocol)
+    assert "**holds**" in line and "linear: PFF_rel gain +9 [" in line and "Rule:" in line
+    worse = {label: runs(1.0, 50.0) if label == "teacher forcing" else runs(10.0, 100.0) for label in labels}
+    assert "**does not hold**" in curriculum.verdict(worse, protocol)
+    still = {label: runs(0.0, 50.0 if label == "teacher forcing" else 40.0) for label in labels}
+    for r in still.values():
+        for x in r:
+            for m in x["minutes"]:
+                m["PFF_rel"] = 0.0
+    assert "inconclusive (no model froze" in curriculum.verdict(still, protocol)
