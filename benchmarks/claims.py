@@ -184,10 +184,9 @@ def main() -> None:
         lines.append(claims_transflower.verdict(tf, protocol))
     if cur:
         lines.append(claims_curriculum.verdict(cur, protocol))
-    tm2d = verdict_line("- **TM2D** (text late fusion")  # text_spans.py's verdict; its section has the tables
-    lines.append(tm2d + " (benchmarks/text_spans.py; tables in \"TM2D: text spans on real songs\"; the row "
-                 "above is its music-only dancing)" if tm2d else
-                 "- **TM2D**: not run yet: benchmarks/text_spans.py tests its claim (the fusion-weight sweep).")
+    tm2d = verdict_line("- **TM2D** (late fusion")  # claims_tm2d.py's verdict; its section has the tables
+    lines.append(tm2d if tm2d else "- **TM2D**: not run yet: benchmarks/claims_tm2d.py tests its claim (late fusion "
+                 "against the slerp baseline at the span edges).")
     text = "\n".join(lines)
     print(text)
     if args.readme and not args.quick:  # the smoke path never overwrites the full run's figures
