@@ -140,6 +140,9 @@ def main() -> None:
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="the smoke path: one seed, few steps, short songs")
+    parser.add_argument("--reduced", action="store_true",
+                        help="3 seeds, 40 steps, short songs: about ten minutes per experiment on one thread; its "
+                             "verdicts are marked reduced and never written into the README")
     parser.add_argument("--cache", default=None, help="result cache (default runs/claims-cache[-quick])")
     parser.add_argument("--only", nargs="*", choices=["transflower", "curriculum", "table"], default=None)
     parser.add_argument("--cached-only", action="store_true",
@@ -148,8 +151,11 @@ def main() -> None:
     parser.add_argument("--readme", action="store_true", help="write the result into benchmarks/README.md")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    cache = Path(args.cache or ROOT / "runs" / ("claims-cache-quick" if args.quick else "claims-cache"))
-    protocol = Protocol.quick(cache) if args.quick else Protocol(cache=cache)
+    tag = "-quick" if args.quick else "-reduced" if args.reduced else ""
+    cache = Path(args.cache or ROOT / "runs" / f"claims-cache{tag}")
+    protocol = (Protocol.quick(cache) if args.quick else Protocol.reduced(cache) if args.reduced
+                else Protocol(cache=cache))
+    reduced = " (reduced run: --reduced)" if args.reduced else " (smoke run: --quick)" if args.quick else ""
     started = time.perf_counter()
     want = set(args.only or ["transflower", "curriculum", "table"])
     claims_protocol.CACHED_ONLY = args.cached_only
@@ -163,6 +169,7 @@ def main() -> None:
     span = (files[-1].stat().st_mtime - files[0].stat().st_mtime) / 60 if files else 0.0
     lines = [
         f"Command: `OMP_NUM_THREADS=1 nice -n 5 .venv/bin/python benchmarks/claims.py{' --quick' * args.quick}"
+        f"{' --reduced' * args.reduced}"
         f"{' --cached-only' * args.cached_only} --readme`; {len(files)} cached results written over {span:.0f} "
         f"min of wall time, this invocation "
         f"{total / 60:.1f} min, on {platform.machine()}, "
@@ -181,15 +188,15 @@ def main() -> None:
         lines += [f"DanceRevolution experiment ({protocol.long_songs} held-out songs of {protocol.long_seconds:g} s):",
                   "", *claims_curriculum.table(cur), ""]
     if tf:
-        lines.append(claims_transflower.verdict(tf, protocol))
+        lines.append(claims_transflower.verdict(tf, protocol, reduced))
     if cur:
-        lines.append(claims_curriculum.verdict(cur, protocol))
+        lines.append(claims_curriculum.verdict(cur, protocol, reduced))
     tm2d = verdict_line("- **TM2D** (late fusion")  # claims_tm2d.py's verdict; its section has the tables
     lines.append(tm2d if tm2d else "- **TM2D**: not run yet: benchmarks/claims_tm2d.py tests its claim (late fusion "
                  "against the slerp baseline at the span edges).")
     text = "\n".join(lines)
     print(text)
-    if args.readme and not args.quick:  # the smoke path never overwrites the full run's figures
+    if args.readme and not (args.quick or args.reduced):  # only the full run writes the README's figures
         write_section("claims", text)
 
 

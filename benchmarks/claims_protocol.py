@@ -65,6 +65,14 @@ class Protocol:
                    long_seconds=16.0, long_songs=1, steps=6, dr_steps=6, val_every=3, patience=1, batch_size=8,
                    temperatures=(0.75, 1.0), cache=cache)
 
+    @classmethod
+    def reduced(cls, cache: Path) -> Protocol:
+        """A run that fits about ten minutes of one CPU thread for one experiment: 3 seeds, 40 steps, two 8-s
+        test songs, one selection song, 3 samples, two temperatures. Its verdicts say they are reduced."""
+        return cls(seeds=3, samples=3, test_songs=2, select_songs=1, train_seconds=12.0, test_seconds=8.0,
+                   long_seconds=60.0, long_songs=1, steps=40, dr_steps=40, val_every=20, patience=2, batch_size=16,
+                   temperatures=(0.75, 1.0), cache=cache)
+
     def dataset(self, homogeneous: bool = False) -> str:
         """The training set override: 12 songs, 3 dances each (all dancers, or the homogeneous control)."""
         return (f"data.dataset={{plugin: synthetic-dance, songs: {TRAIN_SONGS}, seconds: {self.train_seconds:g}, "
