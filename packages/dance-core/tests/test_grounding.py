@@ -244,3 +244,35 @@ def test_restless_feet_without_contacts_still_come_down_to_the_floor():
     per_second = lows[: n // window * window].reshape(-1, window).min(1)
     np.testing.assert_array_less(np.abs(per_second), 0.02)
     assert lows.min() > -1e-3
+
+
+def causal(motion):
+    """The motion grounded frame by frame by ``CausalGrounding``."""
+    from dance_core.motion.grounding import CausalGrounding
+
+    g = CausalGrounding(motion.skeleton, motion.fps)
+    frames = [g(motion.root[i], motion.rotations[i]) for i in range(motion.n_frames)]
+    return Motion(motion.skeleton, motion.fps, np.stack([f[0] for f in frames]), np.stack([f[1] for f in frames]))
+
+
+@pytest.mark.parametrize("lift", [0.30, -0.12])
+def test_causal_grounding_brings_a_floating_or_sunk_dancer_to_the_floor(lift):
+    out = causal(dancer(lift=lift))
+    h = soles(out)
+    assert h.min() > -1e-6  # never below the floor, from the first frame
+    assert np.abs(h[5:]).max() < 0.01  # on it once the one-pole filter has settled (0.1 s)
+    np.testing.assert_allclose(out.root[:, [0, 2]], dancer(lift=lift).root[:, [0, 2]])
+
+
+def test_causal_grounding_keeps_a_jump_and_pins_a_skating_foot():
+    m = dancer()
+    t = np.arange(m.n_frames) / FPS
+    flight = (t >= 1.8) & (t < 2.2)
+    m.root[flight, 1] += 0.2 * np.sin(np.pi * (t[flight] - 1.8) / 0.4)
+    h = soles(causal(m))
+    assert h[np.argmax(m.root[:, 1])] > 0.17 and h[~flight].max() < 0.01
+    m = dancer(seconds=3.0)
+    m.root[:, 0] += 0.10 * np.clip(t[: m.n_frames] - 1.0, 0, 1) ** 2 * (3 - 2 * np.clip(t[: m.n_frames] - 1.0, 0, 1))
+    out = causal(m)
+    assert horizontal_speed(m, 7).max() > 0.1 and horizontal_speed(out, 7).max() < 0.01  # pinned where it landed
+    np.testing.assert_array_equal(out.rotations[:, UPPER + [0]], m.rotations[:, UPPER + [0]])

@@ -173,3 +173,33 @@ def test_osc_and_websocket_sinks_at_once(composer):
     bones = {args[0] for address, args in packets[-1] if address == "/VMC/Ext/Bone/Pos"}
     assert {"Hips", "Head", "LeftHand", "RightFoot"} <= bones and len(bones) == 22
     assert summary["outputs"]["ws"]["sent"] == 57 and summary["outputs"]["osc"]["dropped"] == 0
+
+
+@pytest.fixture(scope="module")
+def dance_20s(composer):
+    """The bundled model's frames for the first 20 s of hungarian_dance_5.ogg (compose's generation)."""
+    return composer.generate(composer.song(AUDIO / "hungarian_dance_5.ogg", 20.0))[0]
+
+
+def test_live_poses_are_grounded_causally(composer, dance_20s):
+    from dance_core.live.pose import PoseDecoder, PoseGrounding
+    from dance_core.motion.grounding import GroundingOptions, find_feet, foot_contacts, foot_speeds, soles
+    from dance_core.motion.motion import Motion
+
+    fps = composer.recipe.fps
+    raw_decoder, decoder = (PoseDecoder(composer.checkpoint, composer.registry, fps) for _ in range(2))
+    grounding = PoseGrounding(decoder)
+    raw = [raw_decoder(f) for f in dance_20s]
+    live = [grounding(decoder(f)) for f in dance_20s]
+    skeleton = decoder.skeleton
+    motions = [Motion(skeleton, fps, np.stack([p.root for p in ps]), np.stack([p.rotations for p in ps]))
+               for ps in (raw, live)]
+    np.testing.assert_allclose(np.stack([p.positions for p in live]), motions[1].positions(), atol=1e-9)
+    feet = find_feet(skeleton)
+    on_floor = [float(np.mean(np.abs(soles(m).min(1)) < 0.03)) for m in motions]
+    assert on_floor[1] >= 0.9 and on_floor[1] > on_floor[0]  # raw: 0.90, live: 0.98
+    # skating: horizontal speed of the feet where the raw dance's own contacts are
+    contacts = foot_contacts(soles(motions[0]), foot_speeds(motions[0].positions(), feet, fps, vertical=True), fps,
+                             GroundingOptions())
+    skating = [foot_speeds(m.positions(), feet, fps)[contacts].mean() for m in motions]
+    assert contacts.mean() > 0.3 and skating[1] < 0.5 * skating[0]  # raw 30 cm/s, live 8 cm/s

@@ -311,11 +311,17 @@ def _interrupt_code(exc: BaseException | None) -> int:
     return 143 if isinstance(exc, Terminated) else 130
 
 
+#: commands that stream on standard output while they run and print their own ``--json`` summary (``dance live
+#: --output -``: frames as JSON Lines on stdout, the summary on stderr), so stdout is not captured for them
+OWN_JSON = frozenset({"live"})
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``dance`` script; with ``--json`` (any command) one JSON object on stdout, errors
     included: a command's own JSON as it prints it, else ``{"output": [lines]}``; on an error ``"error"`` (its
     line) and ``"exit_code"``, the exit code kept. Warnings and progress stay on stderr."""
-    if "--json" not in (sys.argv[1:] if argv is None else argv):
+    args = sys.argv[1:] if argv is None else argv
+    if "--json" not in args or next((a for a in args if not a.startswith("-")), None) in OWN_JSON:
         return _main(argv)
     out, err = io.StringIO(), _Tee(sys.stderr)
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):

@@ -3,8 +3,11 @@
 Offline, a dance is decoded whole (root deltas integrated from the origin, facing +Z). Live, each frame
 is decoded in a window with the frame before it, and the window is placed where that frame stood in the
 world: turned by the heading integrated so far (the ``root.dyaw`` channel) and moved to its ground
-position, so the figure walks and turns as the offline decoding of the same frames does. Live poses
-are not grounded (``compose.ground`` looks ahead and behind for foot contacts): the raw model output.
+position, so the figure walks and turns as the offline decoding of the same frames does.
+
+:class:`PoseGrounding` puts each pose on the floor with its contact feet pinned, from that pose and the
+ones before it (:class:`dance_core.motion.grounding.CausalGrounding`; ``compose.ground`` looks ahead
+and behind, which a live dance cannot).
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import numpy as np
 
 from dance_core.checkpoint import Checkpoint
 from dance_core.errors import DataError
+from dance_core.motion.grounding import CausalGrounding
 from dance_core.motion.rotations import quat_mul, quat_rotate, yaw_quat
 from dance_core.motion.skeleton import Skeleton
 
@@ -75,3 +79,19 @@ class PoseDecoder:
         return {"skeleton": {"name": self.skeleton.name, "joints": list(self.skeleton.names),
                              "parents": [int(p) for p in self.skeleton.parents],
                              "offsets": (self.skeleton.offsets * self.scale).round(6).tolist(), "fps": self.fps}}
+
+
+class PoseGrounding:
+    """Poses (metres) grounded one by one, causally: the lowest contact sole onto the floor, contact feet
+    pinned (:class:`~dance_core.motion.grounding.CausalGrounding`). Position-only poses pass through."""
+
+    def __init__(self, decoder: PoseDecoder):
+        self.scale = decoder.scale
+        self.grounding = CausalGrounding(decoder.skeleton, decoder.fps)
+
+    def __call__(self, pose: Pose) -> Pose:
+        """The pose on the floor."""
+        if pose.rotations is None:
+            return pose
+        root, rotations, positions = self.grounding(pose.root / self.scale, pose.rotations)
+        return Pose(root * self.scale, rotations, positions * self.scale)

@@ -26,7 +26,7 @@ import numpy as np
 from dance_core.errors import DanceError
 from dance_core.live.features import LiveFeatures
 from dance_core.live.generator import LiveGenerator
-from dance_core.live.pose import Pose, PoseDecoder
+from dance_core.live.pose import Pose, PoseDecoder, PoseGrounding
 
 #: seconds generation may fall behind the music it could step on before it drops frames
 MAX_LAG = 0.25
@@ -74,6 +74,7 @@ class LiveSession:
         self.features = LiveFeatures(composer.stack, composer.checkpoint, source.rate)
         self.generator = LiveGenerator(composer.model, recipe, composer.seed(seed_motion), composer.device)
         self.decoder = PoseDecoder(composer.checkpoint, composer.registry, self.fps)
+        self.grounding = PoseGrounding(self.decoder) if recipe.compose.ground else None
         self.threads = generation_threads(composer.model, 1, composer.device, recipe.compose.threads)
         self.max_lag = max(1, int(round(max_lag * self.fps)))
         self.stats = LiveStats()
@@ -173,7 +174,10 @@ class LiveSession:
             self.stop.set()
 
     def _emit(self, index: int, frame: np.ndarray) -> None:
-        message = frame_message(index, self.fps, self.decoder(frame))
+        pose = self.decoder(frame)
+        if self.grounding is not None:
+            pose = self.grounding(pose)
+        message = frame_message(index, self.fps, pose)
         for sink in self.sinks:
             sink.send(message)
         newest = min(index + self.composer.model.window.cond_future - 1, len(self.arrivals) - 1)

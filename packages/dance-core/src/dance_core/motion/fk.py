@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from dance_core.motion.rotations import quat_mul, quat_rotate
@@ -22,11 +24,23 @@ def forward_kinematics(
     world_p = np.empty(rotations.shape[:-1] + (3,))
     world_r[..., 0, :] = rotations[..., 0, :]
     world_p[..., 0, :] = root
-    for j in range(1, len(skeleton)):
-        p = skeleton.parents[j]
-        world_r[..., j, :] = quat_mul(world_r[..., p, :], rotations[..., j, :])
-        world_p[..., j, :] = world_p[..., p, :] + quat_rotate(world_r[..., p, :], offsets[j])
+    for joints, parents in _levels(tuple(int(p) for p in skeleton.parents)):  # all joints of one depth at once
+        world_r[..., joints, :] = quat_mul(world_r[..., parents, :], rotations[..., joints, :])
+        world_p[..., joints, :] = world_p[..., parents, :] + quat_rotate(world_r[..., parents, :], offsets[joints])
     return world_p, world_r
+
+
+@lru_cache(maxsize=64)
+def _levels(parents: tuple[int, ...]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The joints below the root grouped by depth, each group with its parents: ``[(joints, parents)]``."""
+    depth = [0] * len(parents)
+    for j in range(1, len(parents)):
+        depth[j] = depth[parents[j]] + 1
+    out = []
+    for d in range(1, max(depth, default=0) + 1):
+        joints = np.array([j for j in range(len(parents)) if depth[j] == d])
+        out.append((joints, np.array([parents[j] for j in joints])))
+    return out
 
 
 def end_site_positions(skeleton: Skeleton, positions: np.ndarray, world_rotations: np.ndarray) -> np.ndarray:

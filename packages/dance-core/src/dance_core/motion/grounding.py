@@ -173,13 +173,12 @@ def foot_contacts(heights: np.ndarray, speeds: np.ndarray, fps: float, options: 
     lowest = median_filter(heights.min(1), size=3, mode="nearest")  # a one-frame dip is no floor
     window = max(1, int(round(options.floor_window * fps)) | 1)
     above = heights - minimum_filter1d(lowest, window, mode="nearest")[:, None]
-    near_on, near_off = above < options.contact_height / unit, above < options.release_height / unit
-    slow_on, slow_off = speeds < options.contact_speed / unit, speeds < options.release_speed / unit
+    start, hold = contact_thresholds(above, speeds, options, unit)
     contacts = np.zeros(heights.shape, bool)
     for f in range(heights.shape[1]):
         on = False
         for t in range(len(heights)):
-            on = (near_off[t, f] and slow_off[t, f]) if on else (near_on[t, f] and slow_on[t, f])
+            on = hold[t, f] if on else start[t, f]
             contacts[t, f] = on
     shortest = max(2, int(np.ceil(options.min_contact * fps - 1e-9)))
     for f in range(contacts.shape[1]):
@@ -190,6 +189,16 @@ def foot_contacts(heights: np.ndarray, speeds: np.ndarray, fps: float, options: 
             if stop - start < shortest:
                 contacts[start:stop, f] = False
     return contacts
+
+
+def contact_thresholds(above: np.ndarray, speeds: np.ndarray, options: GroundingOptions, unit: float = 1.0
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Where a contact may start (near the floor and slow) and where one in progress holds (below the
+    release height and speed), from sole heights above the floor and foot speeds in skeleton units of
+    ``unit`` metres: the hysteresis both :func:`foot_contacts` and :class:`CausalGrounding` run."""
+    start = (above < options.contact_height / unit) & (speeds < options.contact_speed / unit)
+    hold = (above < options.release_height / unit) & (speeds < options.release_speed / unit)
+    return start, hold
 
 
 def vertical_correction(heights: np.ndarray, contacts: np.ndarray, fps: float, options: GroundingOptions) -> np.ndarray:
@@ -216,6 +225,15 @@ def vertical_correction(heights: np.ndarray, contacts: np.ndarray, fps: float, o
 
 def pin_feet(motion: Motion, feet: tuple[int, int, int, int], contacts: np.ndarray, blend_frames: int) -> Motion:
     """The motion with each contact span's ankle pinned horizontally by leg IK (legs only change)."""
+    pos = motion.positions()
+    targets = [_pin_targets(pos[:, ankle], contacts[:, f], blend_frames) for f, ankle in enumerate(feet[::2])]
+    return pin_legs(motion, feet, np.stack([w for w, _ in targets], 1), np.stack([p for _, p in targets], 1))
+
+
+def pin_legs(motion: Motion, feet: tuple[int, int, int, int], weight: np.ndarray, pinned: np.ndarray) -> Motion:
+    """The motion with each ankle moved horizontally towards ``pinned (T, 2, 2)`` (x, z per foot) by
+    ``weight (T, 2)`` (0: as it is, 1: on the pin), hip and knee solved by two-bone IK, the ankle keeping
+    its world orientation; legs only change."""
     skel = motion.skeleton
     pos, world = forward_kinematics(skel, motion.root, motion.rotations)
     rot = motion.rotations.copy()
@@ -224,12 +242,11 @@ def pin_feet(motion: Motion, feet: tuple[int, int, int, int], contacts: np.ndarr
         hip = skel.parents[knee] if knee > 0 else -1
         if hip <= 0:
             continue  # the leg hangs off the root: moving it would move the body
-        weight, pinned = _pin_targets(pos[:, ankle], contacts[:, f], blend_frames)
-        frames = np.flatnonzero(weight > 0)
+        frames = np.flatnonzero(weight[:, f] > 0)
         if not len(frames):
             continue
         target = pos[frames, ankle].copy()
-        target[:, [0, 2]] += weight[frames, None] * (pinned[frames] - target[:, [0, 2]])
+        target[:, [0, 2]] += weight[frames, f, None] * (pinned[frames, f] - target[:, [0, 2]])
         if toe != ankle:
             forward = pos[frames, toe] - pos[frames, ankle]
         else:  # no toe joint: the ankle's End Site points along the foot
@@ -290,6 +307,77 @@ def ground(motion: Motion, options: GroundingOptions | None = None) -> tuple[Mot
         note="" if contacts.any() else "no foot contact found; only feet below the floor were raised",
     )
     return grounded, report
+
+
+class CausalGrounding:
+    """Grounding one frame at a time, from that frame and the ones before it only (``dance live``).
+
+    The steps of :func:`ground` made causal: contacts by the same thresholds (:func:`contact_thresholds`;
+    the floor is the lowest sole over the last ``floor_window``, the speeds backward differences; no
+    flicker removal, which needs the frames after); the height correction follows the lowest contact
+    sole onto ``y = 0`` through a one-pole filter with time constant ``smoothing`` (kept through a jump,
+    the lowest sole of the last ``max_airborne`` / 2 after that), never leaving a foot below the floor;
+    a foot is pinned where its contact began (the span's mean is not known yet), released over ``blend``.
+    Call it with each frame's root ``(3,)`` and local rotations ``(J, 4)``; it returns the grounded root,
+    rotations and world joint positions. A skeleton without recognisable feet passes through."""
+
+    def __init__(self, skeleton: Skeleton, fps: float, options: GroundingOptions | None = None):
+        from collections import deque
+
+        self.skeleton, self.fps = skeleton, float(fps)
+        self.options = options = options or GroundingOptions()
+        self.feet = find_feet(skeleton)
+        self.unit = metres_per_unit(skeleton, self.feet, options) if self.feet else 1.0
+        self.alpha = 1.0 - np.exp(-1.0 / max(options.smoothing * self.fps, 1e-9))
+        self.blend = int(round(options.blend * self.fps))
+        self.recent: deque[float] = deque(maxlen=3)  # lowest soles of the last frames (a one-frame dip is no floor)
+        self.floor: deque[float] = deque(maxlen=max(1, int(round(options.floor_window * self.fps))))
+        self.airborne = max(1, int(round(options.max_airborne * self.fps / 2)))
+        self.lows: deque[float] = deque(maxlen=self.airborne)
+        self.previous: np.ndarray | None = None  # the last frame's joint positions (before grounding)
+        self.on = np.zeros(2, bool)
+        self.pins = np.zeros((2, 2))
+        self.released = np.full(2, self.blend + 1)  # frames since each foot's contact ended
+        self.since = self.airborne + 1  # frames since a contact
+        self.target = self.correction = None
+
+    def __call__(self, root: np.ndarray, rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The frame grounded: ``(root, rotations, positions)``."""
+        motion = Motion(self.skeleton, self.fps, np.asarray(root, np.float64)[None], rotations[None])
+        if self.feet is None:
+            return motion.root[0], motion.rotations[0], motion.positions()[0]
+        o, unit = self.options, self.unit
+        points = motion.positions(end_sites=True)
+        pos = points[:, : len(self.skeleton)]
+        heights = sole_heights(motion, points, self.feet, o.sole / unit)[0]
+        moved = np.concatenate([self.previous, pos]) if self.previous is not None else np.concatenate([pos, pos])
+        speeds = foot_speeds(moved, self.feet, self.fps, vertical=True)[-1]
+        self.previous = pos
+        self.recent.append(float(heights.min()))
+        self.floor.append(float(np.median(self.recent)))
+        start, hold = contact_thresholds(heights - min(self.floor), speeds, o, unit)
+        began = start & ~self.on
+        self.released = np.where(self.on & ~hold, 0, self.released + 1)
+        self.on = np.where(self.on, hold, start)
+        self.lows.append(float(heights.min()))
+        if self.on.any():
+            self.target, self.since = -float(heights[self.on].min()), 0
+        else:
+            self.since += 1
+            if self.target is None or self.since > self.airborne:
+                self.target = -min(self.lows)
+        self.correction = self.target if self.correction is None else \
+            self.correction + self.alpha * (self.target - self.correction)
+        lifted = motion.root.copy()
+        lifted[0, 1] += max(self.correction, -float(heights.min()))
+        ankles = pos[0, list(self.feet[::2])][:, [0, 2]]
+        self.pins[began] = ankles[began]
+        fade = 1.0 - np.minimum(self.released, self.blend + 1) / (self.blend + 1)
+        weight = np.where(self.on, 1.0, fade * fade * (3 - 2 * fade))
+        grounded = replace(motion, root=lifted)
+        if weight.any():
+            grounded = pin_legs(grounded, self.feet, weight[None], self.pins[None])
+        return grounded.root[0], grounded.rotations[0], grounded.positions()[0]
 
 
 def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
