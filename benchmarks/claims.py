@@ -170,7 +170,8 @@ def main() -> None:
     lines = [
         f"Command: `OMP_NUM_THREADS=1 nice -n 5 .venv/bin/python benchmarks/claims.py{' --quick' * args.quick}"
         f"{' --reduced' * args.reduced}"
-        f"{' --cached-only' * args.cached_only} --readme`; {len(files)} cached results written over {span:.0f} "
+        f"{' --cached-only' * args.cached_only}{' --only ' + ' '.join(args.only) if args.only else ''}"
+        f"{' --readme' * args.readme}`; {len(files)} cached results written over {span:.0f} "
         f"min of wall time, this invocation "
         f"{total / 60:.1f} min, on {platform.machine()}, "
         f"{os.cpu_count()} cores shared with other engineers' jobs, load average {load:.1f} at the end, 1 torch "
