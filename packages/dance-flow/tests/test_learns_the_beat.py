@@ -25,6 +25,7 @@ SHORT = [
     "data.mirror=false",
     "compose.temperature=0",
     "compose.formats=[bvh]",
+    "compose.beat_align=false",  # what the model learned, not compose's time warp onto the beats
 ]
 
 

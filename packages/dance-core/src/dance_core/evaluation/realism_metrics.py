@@ -55,8 +55,9 @@ class Realism:
         return np.concatenate(rows) if rows else np.zeros((0, len(STATISTICS)))
 
     def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
-        """``realism`` (distance), ``realism_scale`` (reference halves), ``realism_ratio`` and
-        ``realism_in_range`` (statistics whose generated median lies inside the reference's 10-90 %)."""
+        """``realism`` (distance), ``realism_in_range`` (statistics whose generated median lies inside the
+        reference's 10-90 %), and when the reference is long enough ``realism_scale`` (its halves) and
+        ``realism_ratio``."""
         require_clips(generated, 1, "realism")
         require_clips(reference, 1, "realism", "reference")
         notes: list[str] = []
@@ -91,8 +92,9 @@ class Realism:
             w = clip_windows(clip, self.hop, "realism")
             if len(w) >= 2:
                 per_clip[clip.name] = {"realism": realism_distance(w, ref)}
-        values = {"realism": distance, "realism_scale": scale, "realism_ratio": distance / scale,
-                  "realism_in_range": float(inside.sum())}
+        values = {"realism": distance, "realism_in_range": float(inside.sum())}
+        if np.isfinite(scale):  # a metric's values are finite: without a scale (noted above) there is no ratio
+            values |= {"realism_scale": scale, "realism_ratio": distance / scale}
         return MetricResult(values, per_clip, notes)
 
 
