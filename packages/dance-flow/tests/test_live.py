@@ -112,6 +112,8 @@ def test_pcm_piped_at_real_time_yields_frames_covering_the_song():
     summary = json.loads(err.decode()[err.decode().index("{"):])
     assert summary["frames"] == len(frames) and summary["dropped_frames"] == 0
     assert summary["latency_ms"]["p50"] > 0 and summary["music_delay_s"] == pytest.approx(0.5564, abs=1e-3)
+    # the default recipe grounds and beat-aligns: live, causally; the dance plays behind what was generated
+    assert summary["grounded"] is True and 0.3 <= summary["beat_lock"]["lag_s"]["max"] <= 1.2
 
 
 def test_an_audio_file_on_stdin_and_a_stream_that_stops_end_with_one_line_and_intact_output():
@@ -182,15 +184,15 @@ def dance_20s(composer):
 
 
 def test_live_poses_are_grounded_causally(composer, dance_20s):
-    from dance_core.live.pose import PoseDecoder, PoseGrounding
+    from dance_core.live.pose import LivePoses, PoseDecoder
     from dance_core.motion.grounding import GroundingOptions, find_feet, foot_contacts, foot_speeds, soles
     from dance_core.motion.motion import Motion
 
     fps = composer.recipe.fps
     raw_decoder, decoder = (PoseDecoder(composer.checkpoint, composer.registry, fps) for _ in range(2))
-    grounding = PoseGrounding(decoder)
+    grounding = LivePoses(decoder, ground=True)
     raw = [raw_decoder(f) for f in dance_20s]
-    live = [grounding(decoder(f)) for f in dance_20s]
+    live = [grounding(i, f) for i, f in enumerate(dance_20s)]
     skeleton = decoder.skeleton
     motions = [Motion(skeleton, fps, np.stack([p.root for p in ps]), np.stack([p.rotations for p in ps]))
                for ps in (raw, live)]

@@ -78,23 +78,33 @@ class LiveFeatures:
     """The recipe's feature streams, standardised with the checkpoint's statistics, as audio arrives:
     ``push(samples)`` returns the new frames ``{stream: (k, dim)}`` (the same ``k`` for every stream),
     ``finish()`` the frames up to the end of the audio heard. ``lookahead`` is the largest declared
-    look-ahead in seconds (a resampler's delay comes on top where rates differ)."""
+    look-ahead in seconds (a resampler's delay comes on top where rates differ).
 
-    def __init__(self, stack: FeatureStack, checkpoint: Checkpoint, rate: int):
+    ``beats``: the names of beat-tracking extractors (registered ``beats=True``); the raw rows of the first
+    one among the streams (before standardisation: beat, downbeat, sin and cos of the beat phase...) are
+    kept for :meth:`take_beats`; when none of them tracks beats, a streaming tracker set as ``tracker`` is
+    run beside the streams for those rows."""
+
+    def __init__(self, stack: FeatureStack, checkpoint: Checkpoint, rate: int, beats: frozenset[str] = frozenset()):
         self.fps, self.rate = stack.fps, int(rate)
         self.stats = checkpoint.stats
         self.parts: dict[str, list] = {}
+        self.beat_part: tuple[str, int] | None = None  # (stream, index) of the beat tracker among the parts
+        self.beat_rows: list[np.ndarray] = []
         for stream, extractors in stack.streams.items():
             if stream not in checkpoint.stats.streams:
                 raise DataError(f"live: feature stream {stream!r} has no statistics in {checkpoint.path}")
             parts = []
             for plugin, extractor in extractors:
+                if plugin in beats and self.beat_part is None:
+                    self.beat_part = (stream, len(parts))
                 if isinstance(extractor, SpanFeatureExtractor):
                     raise DataError(f"live: feature {plugin!r} reads text; text streams are not live yet")
                 live = getattr(extractor, "streaming", None)
                 parts.append(live(self.fps, self.rate) if live else RollingExtractor(plugin, extractor, self.fps,
                                                                                       self.rate))
             self.parts[stream] = parts
+        self.tracker = None  # a streaming beat tracker fed beside the streams (set by the caller)
         self.lookahead = max((getattr(p, "lookahead", 0.0) for ps in self.parts.values() for p in ps), default=0.0)
         self.pending = {s: [np.zeros((0, p.dim()), np.float32) for p in ps] for s, ps in self.parts.items()}
         self.samples = 0
@@ -107,6 +117,8 @@ class LiveFeatures:
         for stream, parts in self.parts.items():
             for k, part in enumerate(parts):
                 self.pending[stream][k] = np.concatenate([self.pending[stream][k], part.push(samples)])
+        if self.tracker is not None:
+            self.beat_rows.append(self.tracker.push(samples))
         return self._ready()
 
     def finish(self) -> dict[str, np.ndarray]:
@@ -115,11 +127,21 @@ class LiveFeatures:
         for stream, parts in self.parts.items():
             for k, part in enumerate(parts):
                 self.pending[stream][k] = np.concatenate([self.pending[stream][k], part.finish(n)])
+        if self.tracker is not None:
+            self.beat_rows.append(self.tracker.finish(n))
         return self._ready()
+
+    def take_beats(self) -> np.ndarray:
+        """The beat tracker's raw rows made since the last call ``(k, columns)`` (none without a tracker)."""
+        rows = [r for r in self.beat_rows if len(r)]
+        self.beat_rows = []
+        return np.concatenate(rows) if rows else np.zeros((0, 4), np.float32)
 
     def _ready(self) -> dict[str, np.ndarray]:
         k = min(len(x) for xs in self.pending.values() for x in xs)
         out = {}
+        if self.beat_part is not None and k:
+            self.beat_rows.append(self.pending[self.beat_part[0]][self.beat_part[1]][:k])
         for stream, parts in self.pending.items():
             values = np.concatenate([x[:k] for x in parts], axis=1)
             if not np.all(np.isfinite(values)):

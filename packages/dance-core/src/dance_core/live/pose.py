@@ -5,9 +5,9 @@ is decoded in a window with the frame before it, and the window is placed where 
 world: turned by the heading integrated so far (the ``root.dyaw`` channel) and moved to its ground
 position, so the figure walks and turns as the offline decoding of the same frames does.
 
-:class:`PoseGrounding` puts each pose on the floor with its contact feet pinned, from that pose and the
-ones before it (:class:`dance_core.motion.grounding.CausalGrounding`; ``compose.ground`` looks ahead
-and behind, which a live dance cannot).
+:class:`LivePoses` chains what follows the decoding, in offline's order: grounding from each pose and the
+ones before it (:class:`dance_core.motion.grounding.CausalGrounding`; ``compose.ground`` looks ahead and
+behind, which a live dance cannot), then beat locking (:mod:`dance_core.live.beat_lock`).
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ import numpy as np
 
 from dance_core.checkpoint import Checkpoint
 from dance_core.errors import DataError
+from dance_core.live.beat_lock import BeatClock, BeatLock
 from dance_core.motion.grounding import CausalGrounding
 from dance_core.motion.rotations import quat_mul, quat_rotate, yaw_quat
 from dance_core.motion.skeleton import Skeleton
@@ -51,7 +52,12 @@ class PoseDecoder:
         self.yaw, self.ground = 0.0, np.zeros(3)
 
     def __call__(self, frame: np.ndarray) -> Pose:
-        """The next frame's pose."""
+        """The next frame's pose (metres)."""
+        root, rotations, positions = self.decode(frame)
+        return Pose(root * self.scale, rotations, positions * self.scale)
+
+    def decode(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+        """The next frame's root, local rotations and joint positions, in the skeleton's units."""
         values = self.stats.invert(np.asarray(frame, np.float64)[None])[0]
         window = values[None] if self.previous is None else np.stack([self.previous, values])
         motion = self.rep.decode(window, self.skeleton, self.fps)
@@ -71,8 +77,7 @@ class PoseDecoder:
         if self.deltas:
             self.ground = root * np.array([1.0, 0.0, 1.0])
         self.previous = values
-        s = self.scale
-        return Pose(root * s, rotations, positions * s)
+        return root, rotations, positions
 
     def skeleton_json(self) -> dict:
         """The skeleton as the first JSON line: joint names, parents and rest offsets in metres."""
@@ -81,17 +86,28 @@ class PoseDecoder:
                              "offsets": (self.skeleton.offsets * self.scale).round(6).tolist(), "fps": self.fps}}
 
 
-class PoseGrounding:
-    """Poses (metres) grounded one by one, causally: the lowest contact sole onto the floor, contact feet
-    pinned (:class:`~dance_core.motion.grounding.CausalGrounding`). Position-only poses pass through."""
+class LivePoses:
+    """Model frames in, the poses sent out (metres): decoded, grounded causally with ``ground``
+    (:class:`~dance_core.motion.grounding.CausalGrounding`; position-only motion is not), then beat-locked
+    when ``clock`` is given (:class:`~dance_core.live.beat_lock.BeatLock`; the re-timing keeps planted feet
+    planted). ``note`` says what could not be done."""
 
-    def __init__(self, decoder: PoseDecoder):
-        self.scale = decoder.scale
-        self.grounding = CausalGrounding(decoder.skeleton, decoder.fps)
+    def __init__(self, decoder: PoseDecoder, ground: bool = True, clock: BeatClock | None = None):
+        self.decoder, self.scale, self.note = decoder, decoder.scale, ""
+        self.grounding = CausalGrounding(decoder.skeleton, decoder.fps) if ground else None
+        self.lock = None
+        if clock is not None:
+            try:
+                self.lock = BeatLock(decoder.skeleton, decoder.fps, clock)
+            except DataError as exc:
+                self.note = f"not beat-locked: {exc}"
 
-    def __call__(self, pose: Pose) -> Pose:
-        """The pose on the floor."""
-        if pose.rotations is None:
-            return pose
-        root, rotations, positions = self.grounding(pose.root / self.scale, pose.rotations)
+    def __call__(self, index: int, frame: np.ndarray) -> Pose:
+        """The pose for music frame ``index`` from the model's frame of that index."""
+        root, rotations, positions = self.decoder.decode(frame)
+        if self.grounding is not None and rotations is not None:
+            root, rotations, positions = self.grounding(root, rotations)
+        if self.lock is not None:  # as offline: the accents of the feet as they will be seen
+            self.lock.push(index, root, rotations, positions)
+            root, rotations, positions = self.lock.pose(index)
         return Pose(root * self.scale, rotations, positions * self.scale)

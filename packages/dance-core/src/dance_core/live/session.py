@@ -26,7 +26,8 @@ import numpy as np
 from dance_core.errors import DanceError
 from dance_core.live.features import LiveFeatures
 from dance_core.live.generator import LiveGenerator
-from dance_core.live.pose import Pose, PoseDecoder, PoseGrounding
+from dance_core.live.beat_lock import BeatClock
+from dance_core.live.pose import LivePoses, Pose, PoseDecoder
 
 #: seconds generation may fall behind the music it could step on before it drops frames
 MAX_LAG = 0.25
@@ -71,10 +72,16 @@ class LiveSession:
         self.composer, self.source, self.sinks = composer, source, sinks
         recipe = composer.recipe
         self.fps = recipe.fps
-        self.features = LiveFeatures(composer.stack, composer.checkpoint, source.rate)
+        beats = frozenset(e.name for e in composer.registry.entries("feature") if e.info.get("beats"))
+        self.features = LiveFeatures(composer.stack, composer.checkpoint, source.rate, beats)
+        if recipe.compose.beat_align and self.features.beat_part is None:
+            self.features.tracker = _tracker(composer.registry, self.fps, source.rate)
         self.generator = LiveGenerator(composer.model, recipe, composer.seed(seed_motion), composer.device)
         self.decoder = PoseDecoder(composer.checkpoint, composer.registry, self.fps)
-        self.grounding = PoseGrounding(self.decoder) if recipe.compose.ground else None
+        tracked = self.features.beat_part is not None or self.features.tracker is not None
+        self.clock = BeatClock(self.fps) if recipe.compose.beat_align and tracked else None
+        self.poses = LivePoses(self.decoder, recipe.compose.ground, self.clock)
+        self.beat_frames = 0  # beat tracker rows given to the clock
         self.threads = generation_threads(composer.model, 1, composer.device, recipe.compose.threads)
         self.max_lag = max(1, int(round(max_lag * self.fps)))
         self.stats = LiveStats()
@@ -96,14 +103,14 @@ class LiveSession:
             for block in self.source.blocks():
                 arrived = time.perf_counter()
                 samples += len(block)
-                self.inbox.put((self.features.push(block), arrived))
+                self.inbox.put((self.features.push(block), self.features.take_beats(), arrived))
                 if self.stop.is_set():
                     break
                 if self.sinks and all(s.closed.is_set() for s in self.sinks):
                     self.stats.stopped = "every output closed"
                     break
             else:
-                self.inbox.put((self.features.finish(), time.perf_counter()))
+                self.inbox.put((self.features.finish(), self.features.take_beats(), time.perf_counter()))
             self.stats.music_seconds = samples / self.source.rate
         except KeyboardInterrupt:
             self.stats.stopped = "interrupted"
@@ -136,7 +143,16 @@ class LiveSession:
             "lookahead_s": {"features": round(self.features.lookahead, 4), "model": round(w.cond_future / self.fps, 4)},
             "music_delay_s": round(self.features.lookahead + w.cond_future / self.fps, 4),
             "threads": self.threads, "outputs": {s.name: s.stats() for s in self.sinks},
+            "grounded": self.poses.grounding is not None, "beat_lock": self._lock_summary(),
         })
+
+    def _lock_summary(self) -> dict[str, Any] | None:
+        lock = self.poses.lock
+        if lock is None:
+            return {"note": self.poses.note} if self.poses.note else None
+        lag = np.asarray(lock.lags or [0.0])
+        return {"accents": lock.accents.count, "tempo_bpm": round(60.0 / self.clock.period, 1) if self.clock.period
+                else None, "lag_s": {"mean": round(float(lag.mean()), 3), "max": round(float(lag.max()), 3)}}
 
     def _generate(self) -> None:
         """The generation thread: take feature frames, step the model, hand poses to the sinks."""
@@ -148,7 +164,8 @@ class LiveSession:
             while not self.stop.is_set():
                 item = self.inbox.get()
                 while item is not None:
-                    streams, arrived = item
+                    streams, beats, arrived = item
+                    self._beats(beats)
                     k = len(next(iter(streams.values()))) if streams else 0
                     self.arrivals += [arrived] * k
                     gen.add(streams)
@@ -173,13 +190,29 @@ class LiveSession:
             self.error = exc
             self.stop.set()
 
+    def _beats(self, rows: np.ndarray) -> None:
+        """The beat tracker's rows (sin and cos of the beat phase in columns 2 and 3) to the clock."""
+        if self.clock is not None:
+            for row in rows:
+                self.clock.update(self.beat_frames, float(row[2]), float(row[3]))
+                self.beat_frames += 1
+
     def _emit(self, index: int, frame: np.ndarray) -> None:
-        pose = self.decoder(frame)
-        if self.grounding is not None:
-            pose = self.grounding(pose)
-        message = frame_message(index, self.fps, pose)
+        message = frame_message(index, self.fps, self.poses(index, frame))
         for sink in self.sinks:
             sink.send(message)
         newest = min(index + self.composer.model.window.cond_future - 1, len(self.arrivals) - 1)
         self.stats.latencies.append(time.perf_counter() - self.arrivals[newest])
         self.stats.frames += 1
+
+
+def _tracker(registry, fps: float, rate: int):
+    """A streaming beat tracker for beat locking when the recipe's streams have none: the registered beat
+    tracker's ``streaming`` form, or None."""
+    from dance_core.data.beat_tracking import beat_tracker
+
+    entry = beat_tracker(registry)
+    if entry is None:
+        return None
+    live = getattr(entry.build(entry.config_for({})), "streaming", None)
+    return live(fps, rate) if live else None

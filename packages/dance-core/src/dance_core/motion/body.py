@@ -74,10 +74,18 @@ def body_beats(positions: np.ndarray, fps: float, names: Sequence[str], where: s
     still body)."""
     body = Body.of(names, where)
     energy = body_energy(positions, fps, body, leg_length(positions, body))
-    if len(energy) < 3 or energy.max() < 1e-6:
-        return np.zeros(0)
+    return energy_minima(energy, fps, min_gap) / fps
+
+
+def energy_minima(energy: np.ndarray, fps: float, min_gap: float = 0.2) -> np.ndarray:
+    """Frame indices (float) of the accents in a body's energy (:func:`body_beats`' rule): each the lowest
+    within ``min_gap`` / 2 either side, below the median energy, and at least 5 % of the median under the
+    highest there. Empty for fewer than 3 frames or a still body."""
+    energy = np.asarray(energy, np.float64)
     order = max(1, int(round(min_gap * fps / 2)))
-    idx = [t for t in range(order, len(energy) - order)
-           if energy[t] == energy[t - order:t + order + 1].min() and energy[t] < np.median(energy)
-           and energy[t - order:t + order + 1].max() - energy[t] > 0.05 * np.median(energy)]
-    return np.asarray(idx, np.float64) / fps
+    if len(energy) < max(3, 2 * order + 1) or energy.max() < 1e-6:
+        return np.zeros(0)
+    windows = np.lib.stride_tricks.sliding_window_view(energy, 2 * order + 1)
+    middle, median = energy[order : len(energy) - order], np.median(energy)
+    keep = (middle == windows.min(1)) & (middle < median) & (windows.max(1) - middle > 0.05 * median)
+    return np.flatnonzero(keep).astype(np.float64) + order

@@ -1,0 +1,203 @@
+"""Beat locking live: the dance's own accents moved onto the music's beats as it plays, causally.
+
+Offline, ``compose.beat_align`` (:mod:`dance_core.motion.beat_align`) warps the whole dance's time so
+its accents land on beats. Live, the same warp is run forward, one output frame at a time:
+
+* **beats** (:class:`BeatClock`): the beat tracker's phase columns (sin and cos of the beat phase, as
+  the ``beats`` extractor gives them live) give each beat's time to within a tracker frame, and the
+  tempo (the phase's advance per frame), so beats ahead are predicted. The tracker has heard the music
+  ``music_delay`` (0.556 s for the bundled model) past the frame being played, so the next beat or two
+  are known, not guessed;
+* **accents** (:class:`LiveAccents`): the body's pauses (:func:`dance_core.motion.body.energy_minima`
+  on :func:`~dance_core.motion.body.body_energy`, the rule offline alignment and the metrics use) over
+  the last 6 s of generated frames, each known ``SETTLE`` frames after it;
+* **the warp** (:class:`BeatLock`): output frame ``j`` (music time ``j / fps``) shows the generated
+  dance at a source frame ``s <= j``, ``s`` advancing by a rate within ``[1 / MAX_RATE, MAX_RATE]``.
+  The dance plays ``LAG`` seconds behind the frames generated (it starts by holding its first pose
+  that long), so accents are seen before they are played: the next accent is steered onto a beat it can
+  reach within the rate bounds, the one that brings the lag nearest ``LAG`` (else the beat nearest
+  where it would land, within ``REACH`` of a period), re-planned every frame; with no accent to steer,
+  the lag drifts back to ``LAG``. Poses between frames: root linear, rotations
+  slerped, as offline.
+
+The price: the dance shows what the model made ``LAG`` (0.3-1.2 s) earlier, so its reaction to the
+music is that much later than the frame's own latency (``lag_s`` in the summary).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from dance_core.motion.body import Body, body_energy, energy_minima
+from dance_core.motion.fk import forward_kinematics
+from dance_core.motion.rotations import quat_slerp
+from dance_core.motion.skeleton import Skeleton
+
+#: the most the dance is sped up or slowed down (as offline)
+MAX_RATE = 1.35
+#: an accent is steered to a beat within this share of a beat period of where it would land
+REACH = 0.45
+#: seconds the dance plays behind the generated frames, and the bounds of that lag
+LAG, MIN_LAG, MAX_LAG = 0.75, 0.3, 1.2
+#: seconds of generated frames the accents are found in (below their median energy, as offline over the song)
+WINDOW = 6.0
+#: frames after an accent before it counts (its energy's smoothing and neighbours)
+SETTLE = 3
+
+
+class BeatClock:
+    """Beat times from the tracker's phase columns, frame by frame: ``update(frame, sin, cos)``; ``ahead(t)``
+    the beats after ``t`` (known, then predicted at the current tempo)."""
+
+    def __init__(self, fps: float):
+        self.fps = float(fps)
+        self.phase: float | None = None
+        self.periods: deque[float] = deque(maxlen=8)
+        self.beats: deque[float] = deque(maxlen=16)
+
+    @property
+    def period(self) -> float | None:
+        """The current beat period (s), None before the tempo is known."""
+        return float(np.median(self.periods)) if self.periods else None
+
+    def update(self, frame: int, sin: float, cos: float) -> None:
+        """The beat phase at music frame ``frame``."""
+        phase = float(np.arctan2(sin, cos) / (2 * np.pi)) % 1.0
+        if self.phase is not None:
+            step = (phase - self.phase) % 1.0
+            if 1e-3 < step < 0.5:
+                self.periods.append(1.0 / self.fps / step)
+            if phase < self.phase - 0.5 and self.period is not None:  # the phase wrapped: a beat
+                self.beats.append(frame / self.fps - phase * self.period)
+        self.phase = phase
+
+    def ahead(self, t: float, horizon: float) -> np.ndarray:
+        """Beat times (s) after ``t`` up to ``t + horizon``: those heard, then predicted at the current tempo."""
+        period = self.period
+        if period is None or not self.beats:
+            return np.zeros(0)
+        known = [b for b in self.beats if b > t]
+        last = self.beats[-1]
+        extra = last + period * np.arange(1, int(np.ceil((t + horizon - last) / period)) + 1)
+        out = np.concatenate([known, extra[extra > t]])
+        return out[out <= t + horizon]
+
+
+class LiveAccents:
+    """The body's accents in generated frames as they come: ``push(frame, positions)`` gives the source frames
+    (float) of accents newly settled."""
+
+    def __init__(self, skeleton: Skeleton, fps: float):
+        self.fps = float(fps)
+        self.body = Body.of(skeleton.names, "live dance")
+        self.buffer: deque[np.ndarray] = deque(maxlen=int(round(WINDOW * self.fps)))
+        self.frame = -1  # the newest frame pushed
+        self.last = -np.inf  # the newest accent given
+        self.count = 0
+
+    def push(self, frame: int, positions: np.ndarray) -> list[float]:
+        """Take generated frame ``frame``'s joint positions ``(J, 3)``; the accents settled since the last call."""
+        self.buffer.append(np.asarray(positions, np.float64))
+        self.frame = frame
+        if len(self.buffer) < 2 * SETTLE + 3:
+            return []
+        energy = body_energy(np.stack(self.buffer), self.fps, self.body, 1.0)
+        first = frame - len(self.buffer) + 1
+        found = [first + float(i) for i in energy_minima(energy, self.fps) if i <= len(energy) - 1 - SETTLE]
+        order = max(1, int(round(0.2 * self.fps / 2)))
+        new = [a for a in found if a > self.last + order]
+        if new:
+            self.last = new[-1]
+            self.count += len(new)
+        return new
+
+
+class BeatLock:
+    """Generated poses in, beat-locked poses out: ``push(frame, root, rotations, positions)`` for each
+    generated frame (skipped frames hold the last), then ``pose(frame)`` for the output frame of the same
+    index: ``(root, rotations, positions)`` of the dance at its source frame (``source``, ``lag``)."""
+
+    def __init__(self, skeleton: Skeleton, fps: float, clock: BeatClock):
+        self.skeleton, self.fps, self.clock = skeleton, float(fps), clock
+        self.accents = LiveAccents(skeleton, fps)
+        self.planned: deque[float] = deque()  # accents (source frames) not yet played
+        self.poses: deque[tuple] = deque(maxlen=int(round((MAX_LAG + 1.0) * self.fps)))
+        self.newest = -1
+        self.source = -LAG * self.fps  # the first pose is held while the lag builds
+        self.output = -1
+        self.rate = 1.0
+        self.lags: list[float] = []
+
+    def push(self, frame: int, root: np.ndarray, rotations: np.ndarray | None, positions: np.ndarray) -> None:
+        """Generated frame ``frame``'s pose (a gap after the last one is filled with the last pose, held)."""
+        while self.newest >= 0 and self.newest + 1 < frame:
+            self.poses.append(self.poses[-1])
+            self.newest += 1
+        self.poses.append((np.asarray(root, np.float64), rotations, np.asarray(positions, np.float64)))
+        self.newest = frame
+        self.planned.extend(self.accents.push(frame, positions))
+
+    def pose(self, frame: int) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+        """The output pose for music frame ``frame`` (at most the newest generated frame)."""
+        steps = frame - self.output if self.output >= 0 else 1
+        for _ in range(max(1, steps)):
+            self._advance()
+        self.output = frame
+        self.lags.append((frame - max(self.source, 0.0)) / self.fps)
+        return self._sample(max(self.source, 0.0))
+
+    def _advance(self) -> None:
+        """Move the source on by one output frame's rate."""
+        j = self.output + 1
+        while self.planned and self.planned[0] <= self.source:
+            self.planned.popleft()
+        target = self._plan(j) if self.source >= 0 else None
+        if target is None:  # nothing to steer: drift back to the nominal lag
+            lag = j - 1 - self.source
+            target = float(np.clip(1.0 + (lag - LAG * self.fps) / (2 * self.fps), 1 / 1.1, 1.1))
+        self.rate = target
+        self.output = j
+        self.source = min(self.source + self.rate, float(j), float(self.newest))
+        self.source = max(self.source, j - MAX_LAG * self.fps)
+
+    def _plan(self, j: int) -> float | None:
+        """The rate that lands the next accent on a beat: of the beats reachable within the rate bounds, the
+        one nearest where the accent would land with the lag at ``LAG`` (so steering keeps the lag that lets
+        accents be seen ahead), else the one nearest where it would land at rate 1 (the rate clipped)."""
+        if not self.planned or self.clock.period is None:
+            return None
+        accent = self.planned[0]
+        ahead = accent - self.source  # source frames until the accent plays
+        now = (j - 1) / self.fps
+        beats = self.clock.ahead(now, ahead * MAX_RATE / self.fps + self.clock.period)
+        frames = beats * self.fps - (j - 1)
+        beats, frames = beats[frames > 0], frames[frames > 0]
+        if not len(beats):
+            return None
+        rates = ahead / frames
+        reachable = (rates >= 1 / MAX_RATE) & (rates <= MAX_RATE)
+        if reachable.any():
+            ideal = (accent + LAG * self.fps) / self.fps
+            pick = np.flatnonzero(reachable)[np.argmin(np.abs(beats[reachable] - ideal))]
+        else:
+            pick = int(np.argmin(np.abs(beats - (now + ahead / self.fps))))
+            if abs(beats[pick] - now - ahead / self.fps) > REACH * self.clock.period:
+                return None
+        return float(np.clip(rates[pick], 1 / MAX_RATE, MAX_RATE))
+
+    def _sample(self, source: float) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+        """The pose at fractional source frame ``source``: root and positions linear, rotations slerped."""
+        first = self.newest - len(self.poses) + 1
+        k = float(np.clip(source - first, 0, len(self.poses) - 1))
+        lo = int(np.floor(k))
+        hi, w = min(lo + 1, len(self.poses) - 1), k - lo
+        a, b = self.poses[lo], self.poses[hi]
+        if w < 1e-9 or hi == lo:
+            return a
+        root = (1 - w) * a[0] + w * b[0]
+        if a[1] is None:
+            return root, None, (1 - w) * a[2] + w * b[2]
+        rotations = quat_slerp(a[1], b[1], np.full((len(a[1]), 1), w))
+        return root, rotations, forward_kinematics(self.skeleton, root, rotations)[0]

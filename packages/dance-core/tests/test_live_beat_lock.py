@@ -1,0 +1,77 @@
+"""Beat locking live (dance_core.live.beat_lock): beats from the tracker's phase, a dance whose pauses drift
+against the beat played so that they land on it, causally."""
+
+import numpy as np
+import pytest
+
+from dance_core.evaluation.realism import on_beat
+from dance_core.live.beat_lock import MAX_RATE, BeatClock, BeatLock
+from dance_core.motion.body import body_beats
+from dance_core.motion.motion import Motion
+from dance_core.motion.rotations import expmap_to_quat
+from dance_core.motion.skeletons import dance24
+
+FPS = 20.0
+L_SHOULDER, R_SHOULDER, L_HIP, R_HIP = 16, 17, 1, 2
+
+
+def tick(clock, beats, f):
+    """Feed the clock music frame ``f``: the phase columns a tracker gives for ``beats`` (s)."""
+    t = f / FPS
+    k = np.searchsorted(beats, t, side="right") - 1
+    phase = (t - beats[k]) / (beats[k + 1] - beats[k]) if 0 <= k < len(beats) - 1 else 0.0
+    clock.update(f, np.sin(2 * np.pi * phase), np.cos(2 * np.pi * phase))
+
+
+def clock_of(beats, seconds):
+    """A clock fed ``seconds`` of music."""
+    clock = BeatClock(FPS)
+    for f in range(int(seconds * FPS)):
+        tick(clock, beats, f)
+    return clock
+
+
+def test_the_clock_finds_beats_and_tempo_from_the_phase_and_predicts_the_next():
+    beats = 0.13 + 0.5 * np.arange(30)  # 120 BPM, off the frame grid
+    clock = clock_of(beats, 10.0)
+    assert clock.period == pytest.approx(0.5, abs=0.01)
+    found = np.array(clock.beats)
+    assert len(found) >= 15 and np.abs(found - 0.13 - 0.5 * np.round((found - 0.13) / 0.5)).max() < 0.02
+    ahead = clock.ahead(10.0, 1.2)
+    np.testing.assert_allclose(ahead, [10.13, 10.63, 11.13], atol=0.03)
+    assert BeatClock(FPS).ahead(0.0, 1.0).size == 0  # no tempo yet: nothing to steer to
+
+
+def swinging(seconds):
+    """A dance24 dancer swinging its arms and legs, pausing at the swings' ends: every 0.5 s on average, near
+    the off-beat of a 120 BPM song (0.2 s after its beats), sooner or later by up to 0.1 s as it goes."""
+    n = int(seconds * FPS)
+    t = np.arange(n) / FPS
+    swing = np.sin(np.pi * (t + 0.05) / 0.5 + 0.6 * np.sin(2 * np.pi * t / 3.3))
+    rot = np.zeros((n, 24, 3))
+    rot[:, L_SHOULDER, 2], rot[:, R_SHOULDER, 2] = -1.2 + 0.6 * swing, 1.2 + 0.6 * swing
+    rot[:, L_HIP, 0], rot[:, R_HIP, 0] = 0.4 * swing, -0.4 * swing
+    root = np.tile([0.0, 0.9, 0.0], (n, 1))
+    return Motion(dance24(), FPS, root, expmap_to_quat(rot))
+
+
+def test_a_dance_pausing_off_the_beat_is_played_onto_it():
+    seconds = 30.0
+    beats = 0.5 * np.arange(int(seconds / 0.5) + 4)
+    dance = swinging(seconds)
+    names, positions = dance.skeleton.names, dance.positions()
+    before = on_beat(body_beats(positions, FPS, names), beats)
+    clock = clock_of(beats, 0.55)  # the tracker has heard the music delay (0.55 s) past the frame made
+    lock = BeatLock(dance.skeleton, FPS, clock)
+    out, sources = [], []
+    for f in range(dance.n_frames):
+        tick(clock, beats, f + 11)
+        lock.push(f, dance.root[f], dance.rotations[f], positions[f])
+        out.append(lock.pose(f)[2])
+        sources.append(lock.source)
+        assert lock.source <= f  # never ahead of what was generated
+    after = on_beat(body_beats(np.stack(out)[100:], FPS, names), beats[beats >= 5.0] - 5.0)
+    assert before < 0 and after > 0.7, (before, after)  # locked within 5 s
+    rates = np.diff(np.maximum(sources, 0))[40:]
+    assert rates.min() >= 1 / MAX_RATE - 1e-9 and rates.max() <= MAX_RATE + 1e-9 and rates.std() > 0.05
+    assert max(lock.lags) <= 1.2 + 1e-9 and lock.accents.count > 40
