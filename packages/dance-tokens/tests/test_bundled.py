@@ -13,9 +13,10 @@ def test_bundled_tm2d_small_dances_to_a_song_with_a_text_span(tmp_path, monkeypa
     monkeypatch.chdir(tmp_path)  # the recipe's vocabulary resolves against the recipe, not the working folder
     for out, extra in (("plain", []), ("text", ["--text", "2-4: a person jumps"]),
                        ("again", ["--text", "2-4: a person jumps"])):
-        # ground=false: grounding smooths the root over a second, so it would let the span reach earlier frames
+        # ground=false: grounding smooths the root over a second, so it would let the span reach earlier
+        # frames; beat_align=false: the beat alignment retimes the whole dance from all its accents
         assert main(["-q", "compose", "tm2d-small", "--music", "song.wav", "-o", out, "--format", "npz",
-                     "--set", "compose.ground=false", *extra]) == 0
+                     "--set", "compose.ground=false", "--set", "compose.beat_align=false", *extra]) == 0
     plain, text, again = (np.load(tmp_path / d / "song.npz")["values"] for d in ("plain", "text", "again"))
     assert plain.shape == text.shape and np.isfinite(text).all()
     np.testing.assert_array_equal(text, again)

@@ -123,7 +123,7 @@ def test_composes_music_only_and_with_a_text_span(trained, tmp_path):
 
     def dance(*texts, name):
         r = recipe.model_copy(update={"compose": recipe.compose.model_copy(update={
-            "texts": list(texts), "formats": ["npz"], "ground": False})})
+            "texts": list(texts), "formats": ["npz"], "ground": False, "beat_align": False})})
         [path] = compose(r, music=[music], checkpoint=str(result.checkpoint), out_dir=str(tmp_path / name),
                          quiet=True)
         with np.load(path) as f:
