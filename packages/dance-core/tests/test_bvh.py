@@ -80,6 +80,29 @@ def test_written_euler_angles_never_jump(tmp_path):
     assert np.abs(np.diff(frames[:, 3:6], axis=0)).max() < 20
 
 
+def test_no_number_is_written_as_a_negative_zero(tmp_path):
+    """-0.0 and tiny negative numbers print as 0.000000 (a pose read and written again may turn a -0.0 into
+    +0.0; the text stays the same), while a small negative number that does not round to zero keeps its sign."""
+    import re
+
+    from dance_core.motion.motion import Motion
+    from dance_core.motion.skeletons import dance24
+
+    skel = dance24()
+    skel.offsets[1, 0] = -0.0
+    skel.offsets[2, 2] = -3e-8
+    rot = np.zeros((3, 24, 4))
+    rot[..., 3] = 1
+    root = np.array([[-0.0, 0.9, -4e-7], [-1e-12, 0.9, 0.0], [-2e-6, 0.9, 0.0]])
+    BvhFormat().write_motion(Motion(skel, 30.0, root, rot), tmp_path / "z.bvh")
+    text = (tmp_path / "z.bvh").read_text()
+    assert not re.search(r"-0\.0+(?![0-9])", text)
+    frames = text.splitlines()[text.splitlines().index("MOTION") + 3:]
+    assert [line.split()[:3] for line in frames] == [["0.000000", "0.900000", "0.000000"],
+                                                     ["0.000000", "0.900000", "0.000000"],
+                                                     ["-0.000002", "0.900000", "0.000000"]]
+
+
 @pytest.mark.parametrize("text, match", [
     ("HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 1 Wrotation\n}\nMOTION\nFrames: 0\nFrame Time: 0.1\n",
      "unknown channel"),

@@ -340,10 +340,18 @@ def _writer_channels(skel: Skeleton, j: int) -> tuple[str, ...]:
     return (POSITIONS + chans) if j == 0 else chans
 
 
+def unsigned_zeros(values: np.ndarray, precision: int) -> np.ndarray:
+    """``values`` with every number that prints as zero at ``precision`` decimals made ``+0.0``, so that
+    the text never holds ``-0.000000`` (a -0.0, or a tiny negative number, where the same pose read and
+    written again may give +0.0: the kept frames of an edited dance are then the same bytes)."""
+    values = np.asarray(values, np.float64)
+    return np.where(np.round(values, precision) == 0.0, 0.0, values)
+
+
 def motion_to_bvh_text(motion: Motion, scale: float = 1.0, precision: int = 6) -> str:
     """BVH text of a motion (``scale`` multiplies lengths on the way out): the root's OFFSET is its rest
     offset and its position channels its absolute position; every leaf joint has an End Site
-    (:func:`written_end_sites`)."""
+    (:func:`written_end_sites`). No number is printed as a negative zero (:func:`unsigned_zeros`)."""
     if motion.rotations is None:
         raise DataError("BVH needs joint rotations; this motion only has joint positions")
     skel = motion.skeleton
@@ -358,7 +366,7 @@ def motion_to_bvh_text(motion: Motion, scale: float = 1.0, precision: int = 6) -
         kw = "ROOT" if j == 0 else "JOINT"
         out.append(f"{pad}{kw} {skel.names[j]}")
         out.append(f"{pad}{{")
-        off = skel.offsets[j] * scale
+        off = unsigned_zeros(skel.offsets[j] * scale, precision)
         out.append(f"{pad}\tOFFSET {off[0]:.{precision}f} {off[1]:.{precision}f} {off[2]:.{precision}f}")
         chans = _writer_channels(skel, j)
         out.append(f"{pad}\tCHANNELS {len(chans)} {' '.join(chans)}")
@@ -366,7 +374,7 @@ def motion_to_bvh_text(motion: Motion, scale: float = 1.0, precision: int = 6) -
             depth_of[c] = d + 1
             emit(c)
         if j in ends:
-            e = ends[j] * scale
+            e = unsigned_zeros(ends[j] * scale, precision)
             out.extend([f"{pad}\tEnd Site", f"{pad}\t{{",
                         f"{pad}\t\tOFFSET {e[0]:.{precision}f} {e[1]:.{precision}f} {e[2]:.{precision}f}",
                         f"{pad}\t}}"])
@@ -380,7 +388,7 @@ def motion_to_bvh_text(motion: Motion, scale: float = 1.0, precision: int = 6) -
         for j, e in zip(group, np.moveaxis(quat_to_euler(motion.rotations[:, group], rot_order), 1, 0), strict=True):
             euler[j] = e
     cols = [motion.root * scale] + [euler[j] for j in order]
-    frames = np.concatenate(cols, axis=1)
+    frames = unsigned_zeros(np.concatenate(cols, axis=1), precision)
     out += ["MOTION", f"Frames: {len(frames)}", f"Frame Time: {1.0 / motion.fps:.8f}"]
     buf = io.StringIO()
     np.savetxt(buf, frames, fmt=f"%.{precision}f", delimiter=" ")
