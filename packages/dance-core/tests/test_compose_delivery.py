@@ -104,3 +104,26 @@ def test_convert_and_compose_share_the_delivery(model, hero, tmp_path):
     a = BvhFormat().read_motion(tmp_path / "rigged" / "song.bvh").positions()
     b = BvhFormat().read_motion(tmp_path / "conv.bvh").positions()
     assert np.abs(a - b).max() < 0.05  # BVH text of the plain dance in between (cm)
+
+
+def test_up_z_writes_bvh_z_up_and_glb_y_up(model, tmp_path, capsys):
+    """``--up z`` (and ``compose.up: z``): the BVH file Z up, the glb beside it Y up, one dance in both;
+    a run whose only output is a glb is refused in one line before any work."""
+    assert compose_cli(model, tmp_path / "out", "--format", "bvh", "--format", "glb", "--up", "z") == 0
+    bvh = BvhFormat().read_motion(tmp_path / "out" / "song.bvh")
+    raw = bvh.positions()
+    glb, _ = GlbFormat().read_motion(tmp_path / "out" / "song.glb")
+    y = glb.positions()[:, [glb.skeleton.names.index(name) for name in bvh.skeleton.names]]
+    np.testing.assert_allclose(raw, np.stack([y[..., 0], -y[..., 2], y[..., 1]], axis=-1), atol=1e-4)
+    np.testing.assert_allclose(BvhFormat(up="z").read_motion(tmp_path / "out" / "song.bvh").positions(), y,
+                               atol=1e-4)
+    recipe = tmp_path / "r.yaml"
+    recipe.write_text("extends: core-dance\ncompose:\n  up: z\n  formats: [bvh]\n")
+    checkpoint, song = model
+    assert main(["compose", str(recipe), *(f"--set={s}" for s in TINY), "--checkpoint", checkpoint, "--music",
+                 song, "-o", str(tmp_path / "recipe"), "--quiet"]) == 0
+    assert (tmp_path / "recipe" / "song.bvh").read_bytes() == (tmp_path / "out" / "song.bvh").read_bytes()
+    assert compose_cli(model, tmp_path / "glb", "--format", "glb", "--up", "z") != 0
+    err = capsys.readouterr().err.strip()
+    assert "--up z" in err and "glTF" in err and len(err.splitlines()) == 1, err
+    assert not (tmp_path / "glb").exists() or not any((tmp_path / "glb").iterdir())

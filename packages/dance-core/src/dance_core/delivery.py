@@ -12,6 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
 from dance_core.errors import DataError
 from dance_core.motion.motion import Motion
 from dance_core.motion.skeleton import Skeleton
@@ -22,12 +24,18 @@ from dance_core.registry import Registry
 UNITS = {"m": 1.0, "cm": 0.01}
 #: built-in rigs by name
 BUILT_IN = ("dance24", "transflower21")
+#: up axes of the files written: Y (ours, glTF's) or Z (Blender's, 3ds Max's, Unreal's world)
+UP_AXES = ("y", "z")
+#: the formats that can be written Z up; glb is Y up by the glTF 2.0 specification (and FBX is made from it),
+#: previews are drawn Y up
+UP_FORMATS = ("bvh", "npz")
 
 
 @dataclass(frozen=True)
 class Delivery:
     """What to do to a finished dance: retarget onto ``rig`` (its maps, grounding the result unless
-    ``ground`` is False), resample to ``fps``, convert to ``units``. ``None`` leaves each as it is."""
+    ``ground`` is False), resample to ``fps``, convert to ``units``, write Z up (``up="z"``: the formats of
+    ``UP_FORMATS``, by :func:`written_up`). ``None`` leaves each as it is."""
 
     rig: Skeleton | None = None
     rig_map: str | None = None
@@ -35,11 +43,12 @@ class Delivery:
     ground: bool = True
     fps: float | None = None
     units: str | None = None
+    up: str | None = None
 
     @property
     def changes(self) -> bool:
-        """True when the dance leaves in another skeleton, rate or units than the model's."""
-        return self.rig is not None or self.fps is not None or self.units is not None
+        """True when the dance leaves in another skeleton, rate, units or up axis than the model's."""
+        return self.rig is not None or self.fps is not None or self.units is not None or self.up == "z"
 
 
 def is_preset(spec: str) -> bool:
@@ -68,9 +77,10 @@ def rig_skeleton(spec: str, registry: Registry, option: str = "--rig") -> Skelet
 def plan_delivery(registry: Registry, rig: str | None = None, rig_map: str | None = None,
                   source_map: str | None = None, ground: bool = True, fps: float | None = None,
                   units: str | None = None, options: tuple[str, str, str] = ("--rig", "--rig-map", "--source-map"),
-                  ) -> Delivery:
+                  up: str | None = None, formats: list[str] | None = None, up_option: str = "--up") -> Delivery:
     """Check a delivery's inputs and resolve its rig: the maps' files, the rig file, and that the rig can
-    be mapped (one line naming the option in ``options`` that gave it), before any work."""
+    be mapped (one line naming the option in ``options`` that gave it), and that one of ``formats`` (the
+    names of the formats written) can take the up axis ``up`` (:func:`check_up`), before any work."""
     from dance_core.checks import check_input_file
     from dance_core.errors import DanceError
 
@@ -81,13 +91,27 @@ def plan_delivery(registry: Registry, rig: str | None = None, rig_map: str | Non
         raise DanceError(f"{options[1]}: only with {options[0]}")
     if units is not None and units not in UNITS:
         raise DanceError(f"units {units!r}: one of {', '.join(UNITS)}")
+    check_up(up, formats or [], up_option)
     target = None
     if rig:
         from dance_core.motion.retarget import rig_frames
 
         target = rig_skeleton(rig, registry, options[0])
         rig_frames(target, rig_map, rig)  # a rig that cannot be mapped fails here, before any work
-    return Delivery(target, rig_map, source_map, ground, fps, units)
+    return Delivery(target, rig_map, source_map, ground, fps, units, up)
+
+
+def check_up(up: str | None, formats: list[str], option: str = "--up") -> None:
+    """An up axis the files can be written with: Z up needs one format of ``UP_FORMATS`` among ``formats``
+    (glb, and FBX made from it, are Y up by glTF's specification); else one line naming ``option``."""
+    from dance_core.errors import DanceError
+
+    if up is not None and up not in UP_AXES:
+        raise DanceError(f"{option} {up!r}: one of {', '.join(UP_AXES)}")
+    if up == "z" and formats and not set(formats) & set(UP_FORMATS):
+        raise DanceError(f"{option} z: {', '.join(formats)} cannot be written Z up (glb is Y up by the glTF 2.0 "
+                         f"specification, FBX is made from it, previews are drawn Y up); Z up is for "
+                         f"{' and '.join(UP_FORMATS)} files")
 
 
 def in_units(motion: Motion, units: str) -> Motion:
@@ -113,6 +137,30 @@ def deliver(motion: Motion, delivery: Delivery, where: str = "motion") -> tuple[
     if delivery.units:
         motion = in_units(motion, delivery.units)
     return motion, note
+
+
+def z_up(motion: Motion) -> Motion:
+    """The motion in a Z-up world, its skeleton's ``up`` set to ``"z"``: a point (x, y, z) goes to
+    (x, -z, y), so a dancer facing +Z (glTF's front) faces -Y, as in Blender. A motion already Z up is
+    returned as it is; a BVH format writes it as it comes."""
+    from dance_core.formats.bvh import Z_TO_Y_UP, reoriented
+    from dance_core.motion.rotations import quat_conj
+
+    if motion.skeleton.up == "z":
+        return motion
+    if motion.rotations is None and np.shape(motion.joint_positions)[-1] != 3:
+        raise DataError(f"{motion.skeleton.name}: joint positions in {np.shape(motion.joint_positions)[-1]} "
+                        "dimensions have no up axis to turn")
+    return reoriented(motion, quat_conj(Z_TO_Y_UP), "z")
+
+
+def written_up(data: MotionData, format_name: str, up: str | None) -> MotionData:
+    """What the format ``format_name`` writes of a delivered dance (frame array: its joint positions) with the
+    up axis ``up``: the dance turned Z up (:func:`z_up`) for a format of ``UP_FORMATS`` when ``up`` is z, else
+    ``data`` itself (glb and previews are Y up whatever is asked)."""
+    if up != "z" or format_name not in UP_FORMATS or data.skeleton_motion is None:
+        return data
+    return motion_data(z_up(data.skeleton_motion), data.meta)
 
 
 def motion_data(motion: Motion, meta: dict | None = None) -> MotionData:

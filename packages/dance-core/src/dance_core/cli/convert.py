@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 
 from dance_core.checks import bounded_number
-from dance_core.delivery import UNITS
+from dance_core.delivery import UNITS, UP_AXES
 
 BLENDER_SCRIPT = ("templates", "blender", "import_dance.py.tmpl")
 
@@ -22,13 +22,15 @@ def add_parser(subparsers) -> None:
         help="convert a motion file (BVH, glb, ...) into another format, rig, frame rate or units",
         description="Convert between any readable and writable motion formats (glTF binary .glb, BVH, NPZ, "
         "HTML/GIF/MP4 previews). Optionally retarget onto your own character (--rig), resample (--fps, "
-        "slerped rotations, low-pass filtered when lowering the rate), change units (--units) and add the "
+        "slerped rotations, low-pass filtered when lowering the rate), change units (--units) or the up axis "
+        "(--up, BVH and NPZ) and add the "
         "song's beats, downbeats and sections (--music) to the markers a glb carries and a .markers.json "
         "sidecar holds (--markers).",
         epilog="examples:\n"
         "  dance convert dance.bvh -o dance.glb\n"
         "  dance convert dance.bvh -o dance.glb --music song.wav --markers --fps 30\n"
         "  dance convert dance.bvh -o hero.bvh --rig my_character.bvh --units cm\n"
+        "  dance convert dance.bvh -o dance_z.bvh --up z     # for Z-up tools\n"
         "  dance convert dance.glb -o dance.bvh\n"
         "  dance convert --blender-script import_dance.py   # Blender: timeline markers on import",
     )
@@ -43,6 +45,8 @@ def add_parser(subparsers) -> None:
                    help="output frame rate, e.g. 24, 30 or 60 (resampled; default: the input's)")
     p.add_argument("--units", choices=sorted(UNITS), help="length units of the output (glb is always metres; "
                    "default: the input's)")
+    p.add_argument("--up", choices=UP_AXES, help="up axis of the output: z for Z-up tools (bvh and npz; glb is "
+                   "always Y up, as glTF 2.0 says; default: y)")
     p.add_argument("--music", metavar="SONG", help="the song the dance was made for: its beats, downbeats and "
                    "sections join the markers (needs a beat tracker: pip install dance-audio)")
     p.add_argument("--markers", action="store_true", help="also write OUT's stem + .markers.json (beats, "
@@ -70,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     from dance_core.atomic import OutputSet
     from dance_core.checks import check_input_file, check_output_file
     from dance_core.data.files import read_motion_file
-    from dance_core.delivery import dance_markers, deliver, motion_data, plan_delivery
+    from dance_core.delivery import dance_markers, deliver, motion_data, plan_delivery, written_up
     from dance_core.errors import DanceError, DataError
     from dance_core.motion.markers import read_markers, sidecar_path, write_markers
     from dance_core.registry import get_registry
@@ -86,10 +90,10 @@ def run(args: argparse.Namespace) -> int:
     check_input_file(args.motion, None, "motion file")
     if args.music:
         check_input_file(args.music, "--music", "music file")
-    # the maps and the rig (that it can be mapped) are checked before the input is read
-    delivery = plan_delivery(registry, args.rig, args.rig_map, args.source_map, not args.no_ground, args.fps,
-                             args.units)
     entry = registry.for_suffix("motion-format", out.suffix, readable=False)
+    # the maps, the rig (that it can be mapped) and the up axis are checked before the input is read
+    delivery = plan_delivery(registry, args.rig, args.rig_map, args.source_map, not args.no_ground, args.fps,
+                             args.units, up=args.up, formats=[entry.name])
     fmt = entry.build(entry.config_for({"body": False})) if args.no_body and entry.name == "glb" else entry.build()
     data = read_motion_file(args.motion, registry)
     motion = data.skeleton_motion
@@ -102,7 +106,8 @@ def run(args: argparse.Namespace) -> int:
         markers = read_markers(beside)
     markers = dance_markers(motion, registry, args.music, markers)
     with OutputSet() as files:
-        fmt.write(motion_data(motion, {"markers": markers, "title": out.stem}), str(files.path(out)))
+        data = written_up(motion_data(motion, {"markers": markers, "title": out.stem}), entry.name, args.up)
+        fmt.write(data, str(files.path(out)))
         if args.markers:
             write_markers(files.path(sidecar_path(out)), markers, motion.fps)
     if note and not args.quiet:

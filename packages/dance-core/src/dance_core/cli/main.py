@@ -163,6 +163,8 @@ def _compose_parser(sub) -> None:
     p.add_argument("--fps", dest="output_fps", type=bounded_number(float, 0.0, 1000.0, above=True),
                    help="frame rate of the files written, e.g. 24, 30, 60 (resampled; default: the model's)")
     p.add_argument("--units", choices=("m", "cm"), help="length units of the files written (glb: always m)")
+    p.add_argument("--up", choices=("y", "z"), help="up axis of the files written: z for Z-up tools (bvh and npz; "
+                   "glb is always Y up, as glTF 2.0 says; default: compose.up)")
     p.add_argument("--keyframe", dest="keyframes", action="append", metavar="T=POSE[:FRAME]",
                    help="pass through frame FRAME (default 0) of the motion file POSE at T seconds (repeatable)")
     p.add_argument("--keep", dest="keep_parts", action="append", metavar="PART=MOTION",

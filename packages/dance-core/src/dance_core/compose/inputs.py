@@ -22,7 +22,8 @@ from dance_core.shards import Shard
 
 #: the options that override a field of the recipe's ``compose:`` section
 SETTINGS = ("samples", "seconds", "temperature", "seed_motion", "texts", "formats", "markers", "rig", "rig_map",
-            "output_fps", "units", "keyframes", "keep_parts", "face", "max_turn", "loop", "from_motion", "regenerate")
+            "output_fps", "units", "up", "keyframes", "keep_parts", "face", "max_turn", "loop", "from_motion",
+            "regenerate")
 
 
 @dataclass(frozen=True)
@@ -49,6 +50,7 @@ class ComposeOptions:
     rig_map: str | Path | None = None
     output_fps: float | None = None
     units: str | None = None
+    up: str | None = None
     keyframes: Sequence[str] | None = None
     keep_parts: Mapping[str, str | Path] | None = None
     face: str | None = None

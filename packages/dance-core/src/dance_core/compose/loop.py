@@ -93,7 +93,9 @@ def run_compose(inputs: ComposeInputs) -> Composed:
     formats = [(entry, recipe.format_options.build(entry))
                for entry in (registry.find("motion-format", f) for f in c.formats)]
     delivery = plan_delivery(registry, inputs.rig, inputs.rig_map, fps=c.output_fps, units=c.units,
-                             options=(_option(options, "rig", "--rig"), _option(options, "rig_map", "--rig-map"), ""))
+                             options=(_option(options, "rig", "--rig"), _option(options, "rig_map", "--rig-map"), ""),
+                             up=c.up, formats=[entry.name for entry, _ in formats],
+                             up_option=_option(options, "up", "--up"))
     if c.markers:
         _need_beat_tracker(recipe, registry, _option(options, "markers", "--markers"))
     stems = dict(zip(songs_in, output_stems(songs_in, c.samples), strict=True))  # every song's, before sharding
@@ -114,7 +116,7 @@ def run_compose(inputs: ComposeInputs) -> Composed:
     device = pick_device(c.device, c.threads)
     model, ckpt, stack = load_model(recipe, checkpoint, device)
     if (delivery.changes or c.markers) and ckpt.motion.skeleton is None:
-        raise RecipeError(f"{recipe.origin}: compose.rig, output_fps, units and markers need a model of skeletal "
+        raise RecipeError(f"{recipe.origin}: compose.rig, output_fps, units, up and markers need a model of skeletal "
                           f"motion; {checkpoint} makes {ckpt.motion.representation or 'feature'} frames")
     labels = {name: _option(options, name, flag) for name, flag in EDIT_OPTIONS.items()}
     edits = plan_edits(recipe, ckpt, registry, labels)

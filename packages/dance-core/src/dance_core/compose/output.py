@@ -14,7 +14,7 @@ from dance_core.checks import implausible_root, nonfinite_reason, refuse_same_na
 from dance_core.compose.edits import Edits
 from dance_core.compose.songs import Song
 from dance_core.data.motion_info import MotionInfo
-from dance_core.delivery import Delivery, dance_markers, deliver, motion_data
+from dance_core.delivery import Delivery, dance_markers, deliver, motion_data, written_up
 from dance_core.errors import DanceError, DataError
 from dance_core.motion.markers import SIDECAR, write_markers
 from dance_core.protocols import MotionData
@@ -64,8 +64,9 @@ def write_song(
                 write_markers(files.path(out / f"{stem}{SIDECAR}"), data.meta["markers"], data.fps)
             data.meta["audio_path"] = song.path
             data.meta["title"] = stem  # previews show the file's own name, not its temporary one
-            for entry, fmt in formats:
-                fmt.write(data, str(files.path(out / f"{stem}{format_suffix(entry)}")))
+            up = delivery.up if delivery is not None else None
+            for entry, fmt in formats:  # glb and previews Y up, bvh and npz Z up with compose.up z
+                fmt.write(written_up(data, entry.name, up), str(files.path(out / f"{stem}{format_suffix(entry)}")))
             if song.texts:  # the spans beside the dance, for dance evaluate (MPD at text starts)
                 lines = "".join(f"{t.start:.4f}\t{t.end:.4f}\t{' '.join(t.text.split())}\n" for t in song.texts)
                 files.path(out / f"{stem}.texts").write_text(lines, encoding="utf-8")
@@ -80,7 +81,7 @@ def delivered(data: MotionData, song: Song, delivery: Delivery | None, recipe: R
     motion = data.skeleton_motion
     if motion is None:
         if delivery is not None and delivery.changes or recipe.compose.markers:
-            raise DataError(f"{where}: the model's motion has no skeleton; compose.rig, output_fps, units and "
+            raise DataError(f"{where}: the model's motion has no skeleton; compose.rig, output_fps, units, up and "
                             "markers need one")
         return data
     if delivery is not None and delivery.changes:

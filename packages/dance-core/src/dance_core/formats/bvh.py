@@ -399,18 +399,20 @@ def motion_to_bvh_text(motion: Motion, scale: float = 1.0, precision: int = 6) -
 Z_TO_Y_UP = np.array([-np.sqrt(0.5), 0.0, 0.0, np.sqrt(0.5)])
 
 
-def reoriented(motion: Motion, q: np.ndarray) -> Motion:
+def reoriented(motion: Motion, q: np.ndarray, up: str | None = None) -> Motion:
     """The motion expressed in a world turned by quaternion ``q``: a change of basis, so rest offsets
     and End Sites turn with it and every local rotation becomes ``q r q^-1`` (the rest pose stands
-    up in the new world, and world positions are ``q`` applied to the old ones)."""
+    up in the new world, and world positions are ``q`` applied to the old ones; a motion of joint
+    positions has them turned). ``up`` is the new world's up axis (default: the skeleton's own)."""
     from dataclasses import replace
 
     skel = motion.skeleton
     turned = Skeleton(list(skel.names), list(skel.parents), quat_rotate(q, skel.offsets), list(skel.channels),
                       {k: quat_rotate(q, v) for k, v in skel.end_sites.items()}, skel.units,
-                      "y" if skel.up == "z" else "z", skel.name)
-    rot = quat_mul(quat_mul(q, motion.rotations), quat_conj(q))
-    return replace(motion, skeleton=turned, root=quat_rotate(q, motion.root), rotations=rot)
+                      up or skel.up, skel.name)
+    rot = None if motion.rotations is None else quat_mul(quat_mul(q, motion.rotations), quat_conj(q))
+    points = None if motion.joint_positions is None else quat_rotate(q, motion.joint_positions)
+    return replace(motion, skeleton=turned, root=quat_rotate(q, motion.root), rotations=rot, joint_positions=points)
 
 
 class BvhFormat:
@@ -433,7 +435,7 @@ class BvhFormat:
         skel, values, names, fps = parse_bvh(path, self.scale)
         skel.up = self.up
         motion = frames_to_motion(skel, values, fps, self.scale, str(path), self.root)
-        return (reoriented(motion, Z_TO_Y_UP) if self.up == "z" else motion), values, names
+        return (reoriented(motion, Z_TO_Y_UP, "y") if self.up == "z" else motion), values, names
 
     def read_motion(self, path: str | Path) -> Motion:
         """The skeletal motion in a BVH file (Y up)."""
@@ -445,9 +447,10 @@ class BvhFormat:
         return MotionData(values.astype(np.float32), motion.fps, names, {"path": str(path)}, motion)
 
     def write_motion(self, motion: Motion, path: str | Path) -> None:
-        """Write a skeletal motion atomically."""
-        if self.up == "z" and motion.rotations is not None:
-            motion = reoriented(motion, quat_conj(Z_TO_Y_UP))
+        """Write a skeletal motion atomically (a Y-up motion turned Z up for a Z-up file; one already Z up,
+        :func:`dance_core.delivery.z_up`, as it is)."""
+        if self.up == "z" and motion.rotations is not None and motion.skeleton.up != "z":
+            motion = reoriented(motion, quat_conj(Z_TO_Y_UP), "z")
         text = motion_to_bvh_text(motion, 1.0 / self.scale, self.precision)
         with atomic_path(path) as tmp:
             tmp.write_text(text, encoding="utf-8")

@@ -251,6 +251,9 @@ class ComposeSpec(Strict):
         None, le=1000.0, description="frame rate of the files written (resampled); default the model's"
     )
     units: Literal["m", "cm"] | None = Field(None, description="length units of the files written (glb: always m)")
+    up: Literal["y", "z"] = Field(
+        "y", description="up axis of the files written: z for Z-up tools (bvh and npz; glb is Y up by the glTF spec)"
+    )
     keyframes: list[str] = Field(
         default_factory=list, description="poses the dance passes through, 'SECONDS=POSE_FILE[:FRAME]' (files as "
         "given, else relative to the recipe); blended in and out over up to 1 s either side"
