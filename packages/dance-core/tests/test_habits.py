@@ -62,11 +62,13 @@ def test_keep_going_writes_the_good_songs_and_lists_the_bad_ones_at_the_end(tmp_
     assert "failed, the others written" not in capsys.readouterr().err
 
 
-def test_quiet_train_prints_the_checkpoint_alone(tmp_path, capsys):
+def test_quiet_train_prints_nothing_and_json_still_names_the_checkpoint(tmp_path, capsys):
     assert main(["-q", "train", "core-synthetic", *TINY, "-o", str(tmp_path / "run")]) == 0
+    assert capsys.readouterr() == ("", "") and (tmp_path / "run" / "model.safetensors").is_file()
+    assert main(["-q", "train", "core-synthetic", *TINY, "-o", str(tmp_path / "run2"), "--json"]) == 0
     out, err = capsys.readouterr()
-    assert out.strip().splitlines() == [str(tmp_path / "run" / "model.safetensors")] and err == ""
-    assert main(["train", "core-synthetic", *TINY, "-o", str(tmp_path / "run2")]) == 0
+    assert json.loads(out)["output"][-1] == str(tmp_path / "run2" / "model.safetensors") and err == ""
+    assert main(["train", "core-synthetic", *TINY, "-o", str(tmp_path / "run3")]) == 0
     assert "trained 20 steps" in capsys.readouterr().out
 
 
@@ -167,3 +169,85 @@ def test_install_completion_prints_the_shell_code(capsys):
     with pytest.raises(SystemExit) as done:
         main(["--install-completion"])
     assert done.value.code == 0 and "complete" in capsys.readouterr().out
+
+
+# ------------------------------------------------------------------ -q: nothing but errors and warnings
+
+QUICK = [arg for s in ("data.dataset.songs=2", "data.dataset.seconds=4", "training.steps=2", "training.batch_size=8",
+                       "training.val_every=2", "training.checkpoint_every=2", "training.log_every=1")
+         for arg in ("--set", s)]
+
+
+@pytest.fixture(scope="module")
+def quiet_inputs(tmp_path_factory, checkpoint):
+    """A 3-s click song, a one-song synthetic dataset (its BVH) and a tiny skeletal model (core-dance)."""
+    from dance_core.recipe import load_recipe
+    from dance_core.train import train
+
+    folder = tmp_path_factory.mktemp("quiet")
+    assert main(["-q", "synth", str(folder / "song.wav"), "--seconds", "3", "--rate", "8000"]) == 0
+    assert main(["-q", "synth", "--out", str(folder / "data"), "--songs", "1", "--seconds", "2", "--rate", "8000",
+                 "--fps", "30"]) == 0
+    train(load_recipe("core-dance", [s for s in QUICK if s != "--set"]), out=str(folder / "dance"), quiet=True)
+    return {"s": folder / "song.wav", "d": folder / "data", "b": folder / "data" / "synth-0000.bvh",
+            "c": checkpoint, "k": folder / "dance" / "model.safetensors"}
+
+
+QUIET_CASES = [  # (argv, a file the command writes, or None; "{t}" is a fresh folder)
+    (["compose", "core-synthetic", "--checkpoint", "{c}", "--music", "{s}", "-o", "{t}/o"], "o/song.npz"),
+    (["compose", "core-dance", "--checkpoint", "{k}", "--music", "{s}", "-o", "{t}/o", "--markers", "--format", "bvh",
+      "--format", "html"], "o/song.markers.json"),
+    (["train", "core-synthetic", *QUICK, "-o", "{t}/run"], "run/model.safetensors"),
+    (["synth", "{t}/x.wav", "--seconds", "1", "--rate", "8000"], "x.wav"),
+    (["synth", "--out", "{t}/data", "--songs", "1", "--seconds", "2", "--rate", "8000", "--fps", "30"],
+     "data/synth-0000.bvh"),
+    (["evaluate", "--generated", "{d}", "--reference", "{d}", "-o", "{t}/r.json", "--no-plots"], "r.json"),
+    (["render", "{b}", "-o", "{t}/x.html"], "x.html"),
+    (["render", "{b}", "-o", "{t}/x.gif", "--size", "32", "32", "--seconds", "0.3"], "x.gif"),
+    (["retarget", "{b}", "--to", "dance24", "-o", "{t}/r.bvh"], "r.bvh"),
+    (["convert", "{b}", "-o", "{t}/c.glb", "--markers"], "c.markers.json"),
+    (["convert", "--blender-script", "{t}/s.py"], "s.py"),
+    (["recipe", "validate", "core-synthetic"], None),
+    (["recipe", "schema", "-o", "{t}/schema.json"], "schema.json"),
+    (["plugin", "new", "mine", "--kind", "head", "--out", "{t}"], "dance-mine/pyproject.toml"),
+    (["features", "{s}", "-x", "energy", "-o", "{t}/f.npz"], "f.npz"),
+]
+
+
+def _fill(argv: list[str], tmp_path, inputs: dict) -> list[str]:
+    values = {"t": str(tmp_path), **{k: str(v) for k, v in inputs.items()}}
+    return [a.format_map(values) if "{" in a else a for a in argv]
+
+
+@pytest.mark.parametrize("where", ["before", "after"])
+@pytest.mark.parametrize("argv, written", QUIET_CASES, ids=[" ".join(c[0][:2]) for c in QUIET_CASES])
+def test_quiet_prints_nothing_on_success(tmp_path, capsys, quiet_inputs, argv, written, where):
+    from dance_core.cli.main import build_parser
+
+    if argv[0] not in build_parser()._subparsers._group_actions[0].choices:
+        pytest.skip(f"no installed plugin adds dance {argv[0]}")
+    argv = _fill(argv, tmp_path, quiet_inputs)
+    assert main(["-q", *argv] if where == "before" else [*argv, "-q"]) == 0
+    assert capsys.readouterr() == ("", "")
+    assert written is None or (tmp_path / written).is_file()
+
+
+ASKED_CASES = [  # what the user asked to see is printed under -q too; stderr stays empty
+    (["recipe", "show", "core-synthetic"], "name: core-synthetic"),
+    (["recipe", "list"], "core-synthetic"),
+    (["recipe", "list", "--json"], '"name": "core-synthetic"'),
+    (["recipe", "schema"], '"$defs"'),
+    (["plugins"], "recipe\tcore-synthetic"),
+    (["render", "{b}", "-o", "{t}/x.html", "--json"], '"output": [\n    "{t}/x.html (60 frames)"'),
+    (["compose", "core-synthetic", "--checkpoint", "{c}", "--music", "{s}", "-o", "{t}/o", "--json"],
+     '"files": [\n    "{t}/o/song.npz"'),
+    (["live", "core-dance", "--checkpoint", "{k}", "--input", "{s}", "--speed", "50", "--output", "-"],
+     '{"skeleton":{"name":"dance24"'),
+]
+
+
+@pytest.mark.parametrize("argv, shown", ASKED_CASES, ids=[" ".join(c[0][:2]) for c in ASKED_CASES])
+def test_quiet_still_prints_what_was_asked_for(tmp_path, capsys, quiet_inputs, argv, shown):
+    assert main(["-q", *_fill(argv, tmp_path, quiet_inputs)]) == 0
+    out, err = capsys.readouterr()
+    assert shown.replace("{t}", str(tmp_path)) in out and err == ""

@@ -20,6 +20,7 @@ def run_features(args) -> int:
         check_output_file,
         get_registry,
         load_audio,
+        say,
         write_bytes,
     )
 
@@ -48,10 +49,10 @@ def run_features(args) -> int:
     np.savez(buf, fps=np.float32(args.fps), **arrays)
     write_bytes(args.out, buf.getvalue())
     shapes = ", ".join(f"{k} {v.shape[1]}" for k, v in arrays.items())
-    print(f"{args.out}: {n_frames} frames at {args.fps:g} fps ({shapes})")
+    say(args, f"{args.out}: {n_frames} frames at {args.fps:g} fps ({shapes})")
     if args.plot:
         from .plot import plot_song
 
         plot_song(audio, args.fps, Path(args.plot))
-        print(f"{args.plot}: mel spectrogram, onset envelope, beats and downbeats")
+        say(args, f"{args.plot}: mel spectrogram, onset envelope, beats and downbeats")
     return 0

@@ -48,6 +48,8 @@ _LAZY: dict[str, str] = {
         ("bounded_number", "check_input_file", "check_input_dir", "check_output_file", "check_output_dir"),
         "dance_core.checks",
     ),
+    # what a plugin command says it did: nothing under -q
+    **dict.fromkeys(("say",), "dance_core.progress"),
 }
 
 __all__ = [
@@ -97,6 +99,7 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time the names load l
     from dance_core.data.sources import ClipSource  # noqa: F401
     from dance_core.media import Audio, FeatureInputs, TextSpan, frame_count  # noqa: F401
     from dance_core.motion import Motion, Skeleton  # noqa: F401
+    from dance_core.progress import say  # noqa: F401
     from dance_core.protocols import (  # noqa: F401
         AudioReader,
         Conditioner,

@@ -7,6 +7,8 @@ import sys
 import time
 from argparse import Namespace
 
+from dance_core.progress import say
+
 
 def _recipe(args: Namespace, extra: list[str] = ()):
     from dance_core.recipe import load_recipe
@@ -38,8 +40,7 @@ def compose(args: Namespace) -> int:
     if args.json:
         print(json.dumps({**summary, **({"error": failed} if failed else {})}, indent=2))
         return 1 if failed else 0
-    for path in result.written:
-        print(path)
+    say(args, *map(str, result.written))
     if not args.quiet:
         print(_compose_line(summary), file=sys.stderr)
     for song, why in result.failed:  # --keep-going: listed at the end, one line each
@@ -198,9 +199,8 @@ def train(args: Namespace) -> int:
     if os.environ.get("RANK", "0") != "0":
         return 0
     val = f", validation loss {result.val_loss:.4f}" if result.val_loss is not None else ""
-    if not args.quiet:  # -q: the checkpoint's path alone
-        print(f"trained {result.steps} steps: loss {result.first_loss:.4f} -> {result.last_loss:.4f}{val}")
-    print(result.checkpoint)
+    say(args, f"trained {result.steps} steps: loss {result.first_loss:.4f} -> {result.last_loss:.4f}{val}",
+        str(result.checkpoint))
     return 0
 
 
@@ -269,7 +269,7 @@ def recipe_validate(args: Namespace) -> int:
     """``dance recipe validate``."""
     recipe = _recipe(args)
     parts = ", ".join(f"{kind} {spec.plugin}" for kind, _, spec in recipe.components())
-    print(f"{recipe.origin}: ok ({recipe.name}: {parts})")
+    say(args, f"{recipe.origin}: ok ({recipe.name}: {parts})")  # -q: the exit code alone
     return 0
 
 

@@ -11,6 +11,7 @@ import argparse
 
 from dance_core.checks import bounded_number
 from dance_core.delivery import UNITS, UP_AXES
+from dance_core.progress import say
 
 BLENDER_SCRIPT = ("templates", "blender", "import_dance.py.tmpl")
 
@@ -58,7 +59,7 @@ def add_parser(subparsers) -> None:
     p.set_defaults(run=run)
 
 
-def _write_script(path: str) -> None:
+def _write_script(path: str, args: argparse.Namespace) -> None:
     from importlib import resources
 
     from dance_core.atomic import write_text
@@ -66,7 +67,7 @@ def _write_script(path: str) -> None:
 
     out = check_output_file(path, "--blender-script", [".py"])
     write_text(out, resources.files("dance_core").joinpath(*BLENDER_SCRIPT).read_text(encoding="utf-8"))
-    print(f"{out} (run: blender --python {out} -- dance.glb)")
+    say(args, f"{out} (run: blender --python {out} -- dance.glb)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -80,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
     from dance_core.registry import get_registry
 
     if args.blender_script:
-        _write_script(args.blender_script)
+        _write_script(args.blender_script, args)
         if args.motion is None and args.out is None:
             return 0
     if args.motion is None or args.out is None:
@@ -110,11 +111,10 @@ def run(args: argparse.Namespace) -> int:
         fmt.write(data, str(files.path(out)))
         if args.markers:
             write_markers(files.path(sidecar_path(out)), markers, motion.fps)
-    if note and not args.quiet:
-        print(note)
     extra = f" + {sidecar_path(out).name}" if args.markers else ""
-    print(f"{out}{extra} ({motion.n_frames} frames at {motion.fps:g} fps on {motion.skeleton.name}; "
-          f"{len(markers.beats)} beats, {len(markers.sections)} sections, "
-          f"{sum(len(v) for v in markers.contacts.values())} foot contacts)")
+    say(args, *([note] if note else []),
+        f"{out}{extra} ({motion.n_frames} frames at {motion.fps:g} fps on {motion.skeleton.name}; "
+        f"{len(markers.beats)} beats, {len(markers.sections)} sections, "
+        f"{sum(len(v) for v in markers.contacts.values())} foot contacts)")
     return 0
 

@@ -134,14 +134,16 @@ def run(args: argparse.Namespace) -> int:
 
         sys.stdout.write(out.read_text(encoding="utf-8"))
     console = Console(stderr=args.json)
-    if not args.quiet:  # -q: the report's path alone
+    if not args.quiet:  # -q: nothing (the exit code; --json: the report)
         console.print(R.render_table(report, f"dance evaluate: {len(generated)} generated vs {len(reference)} "
                                              "reference"))
         for name, reason in report.skipped.items():
             console.print(f"[yellow]{name}: n/a:[/] {reason}")
         for note in report.notes:
             console.print(f"[dim]note: {note}[/]")
-    console.print(f"report: {out}")
+        plots = report.info.get("plots") or []
+        where = f" and {len(plots)} plot(s) in {Path(plots[0]).parent}" if plots else ""
+        console.print(f"report: {out}{where}", highlight=False)
     R.check_selected(report, args.metrics)
     R.check_scored(report)  # nothing scored (e.g. every clip NaN): one line, exit 1
     return 0

@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
             sink.shutdown()
         raise
     if args.open:
-        _open_page(sinks)
+        _open_page(sinks, args.quiet)
     summary = session.run()
     if args.json:
         out = sys.stderr if "-" in args.output else sys.stdout
@@ -89,14 +89,15 @@ def _file_source(args: argparse.Namespace, recipe):
     return FileSource(args.input, get_registry(), recipe.format_options, args.speed)
 
 
-def _open_page(sinks) -> None:
+def _open_page(sinks, quiet: bool) -> None:
     import webbrowser
 
     from dance_core.live.websocket import WebSocketSink
 
     pages = [s.url for s in sinks if isinstance(s, WebSocketSink)]
     if not pages:
-        print("live: --open needs a ws:// output; no page to open", file=sys.stderr)
+        print("dance: warning: live: --open needs a ws:// output; no page to open", file=sys.stderr)
         return
     webbrowser.open(pages[0])
-    print(f"live: page at {pages[0]}", file=sys.stderr)
+    if not quiet:
+        print(f"live: page at {pages[0]}", file=sys.stderr)

@@ -89,19 +89,17 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     """Check the name and the folder, write the package and say what to do next."""
     from dance_core.checks import check_output_dir
+    from dance_core.progress import say
 
     check_name(args.name, args.kind)
     check_output_dir(args.out, "--out")
     target = new_plugin(args.name, args.kind, args.out)
     n_files = sum(1 for p in target.rglob("*") if p.is_file())
-    print(f"wrote {target}/ ({args.kind} {args.name!r}, {n_files} files); next:")
-    print(f"  pip install -e {target}")
-    print(f"  pytest {target}")
     spec = KINDS[args.kind]
-    if spec.recipe:
-        print(f"  dance train {args.name}-example --set training.steps=200")
-    else:
-        print(f"  {spec.try_it.replace('{name}', args.name)}")
+    try_it = f"dance train {args.name}-example --set training.steps=200" if spec.recipe else \
+        spec.try_it.replace("{name}", args.name)
+    say(args, f"wrote {target}/ ({args.kind} {args.name!r}, {n_files} files); next:", f"  pip install -e {target}",
+        f"  pytest {target}", f"  {try_it}")
     return 0
 
 

@@ -58,9 +58,11 @@ def run(args: argparse.Namespace) -> int:
         raise DataError(f"{args.motion}: has no skeleton to draw (a plain feature file); render a BVH or pickle")
     if args.seconds:
         motion = motion.crop(0, max(1, int(round(args.seconds * motion.fps))))
+    from dance_core.progress import say
+
     for out in args.out:
         n = _render(motion, Path(out), args)
-        print(f"{out} ({n} frames)")
+        say(args, f"{out} ({n} frames)")
     return 0
 
 

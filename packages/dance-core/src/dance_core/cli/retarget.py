@@ -51,6 +51,7 @@ def run(args: argparse.Namespace) -> int:
     from dance_core.delivery import is_preset, rig_skeleton
     from dance_core.errors import DataError
     from dance_core.motion.retarget import retarget, rig_frames
+    from dance_core.progress import say
     from dance_core.protocols import MotionData
     from dance_core.registry import get_registry
 
@@ -76,7 +77,5 @@ def run(args: argparse.Namespace) -> int:
     values = positions.reshape(len(positions), -1).astype("float32")  # what a feature format writes
     entry = registry.for_suffix("motion-format", out.suffix, readable=False)
     entry.build().write(MotionData(values, result.fps, channels, {}, result), str(out))
-    if not args.quiet:
-        print(report.summary())
-    print(f"{out} ({result.n_frames} frames at {result.fps:g} fps on {target.name})")
+    say(args, report.summary(), f"{out} ({result.n_frames} frames at {result.fps:g} fps on {target.name})")
     return 0

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from dance_core.checks import bounded_number
+from dance_core.progress import say
 
 
 def add_parser(subparsers) -> None:
@@ -112,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
 
     beats = np.arange(0.0, seconds, 60.0 / args.bpm)  # written piece by piece: an hour at 192 kHz stays small
     write_wav_chunks(args.out, click_chunks(beats, seconds, args.rate, np.random.default_rng(args.seed)), args.rate)
-    print(args.out)
+    say(args, args.out)
     return 0
 
 
@@ -132,7 +133,8 @@ def write_dances(args: Any) -> int:
             raise DanceError("synth: need 1 <= --dances <= 1000 and --fps > 0")
         names = write_music_dances(args.out_dir, args.music, args.dances, args.seed, args.fps, args.tracker,
                                    args.mocap, tuple(args.mocap_exclude))
-        print(f"{args.out_dir}: {len(names)} dances ({names[0]} ... {names[-1]}): song .bvh .beats .texts .sections")
+        say(args,
+            f"{args.out_dir}: {len(names)} dances ({names[0]} ... {names[-1]}): song .bvh .beats .texts .sections")
         return 0
     seconds = 60.0 if args.seconds is None else args.seconds
     if not (1 <= args.songs <= 100_000) or not (2.0 <= seconds <= 3600) or args.fps <= 0 or args.rate < 8000:
@@ -145,5 +147,5 @@ def write_dances(args: Any) -> int:
                           dances_per_song=args.dances, jobs=max(1, args.jobs), dancers=chosen, homogeneous=homogeneous,
                           mocap=args.mocap, mocap_exclude=tuple(args.mocap_exclude))
     what = f"{args.songs} songs x {args.dances} dances" if args.dances > 1 else f"{len(names)} songs"
-    print(f"{args.out_dir}: {what} ({names[0]} ... {names[-1]}): .wav .bvh .beats .texts .sections")
+    say(args, f"{args.out_dir}: {what} ({names[0]} ... {names[-1]}): .wav .bvh .beats .texts .sections")
     return 0
