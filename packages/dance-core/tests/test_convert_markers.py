@@ -117,3 +117,72 @@ def test_fbx_without_blender_is_one_line(tmp_path, monkeypatch, capsys):
     BvhFormat().write_motion(_dance(dance24(), frames=5), tmp_path / "in.bvh")
     assert main(["convert", str(tmp_path / "in.bvh"), "-o", str(tmp_path / "dance.fbx")]) != 0
     assert "needs Blender" in capsys.readouterr().err and not (tmp_path / "dance.fbx").exists()
+
+
+@needs_blender
+def test_fbx_reads_back_through_blender(tmp_path):
+    """``dance convert X.fbx -o Y.bvh``: Blender's FBX importer, a glb, our reader. Our own FBX comes back
+    with our joints, End Sites, frame rate and frames, every joint within 1 cm (seen: 5e-6 m); a Mixamo-named
+    rig in centimetres keeps its names and comes back in metres."""
+    motion = _dance(dance24(), frames=45, seed=6)
+    BvhFormat().write_motion(motion, tmp_path / "in.bvh")
+    assert main(["convert", str(tmp_path / "in.bvh"), "-o", str(tmp_path / "dance.fbx")]) == 0
+    assert main(["convert", str(tmp_path / "dance.fbx"), "-o", str(tmp_path / "back.bvh")]) == 0
+    ours, back = (BvhFormat().read_motion(tmp_path / f"{n}.bvh") for n in ("in", "back"))
+    assert back.skeleton.names == ours.skeleton.names and sorted(back.skeleton.end_sites) == sorted(
+        ours.skeleton.end_sites)
+    assert back.fps == 30.0 and back.n_frames == 45
+    assert np.abs(back.positions(end_sites=True) - ours.positions(end_sites=True)).max() < 0.01
+    rig = renamed(arms_lowered(dance24().scaled(100.0, "cm")), "mixamo", prefix="mixamorig:")
+    BvhFormat().write_motion(_dance(rig, frames=1), tmp_path / "hero.bvh")
+    for out in ("hero.fbx", "hero.bvh"):
+        assert main(["convert", str(tmp_path / "in.bvh"), "-o", str(tmp_path / out), "--rig",
+                     str(tmp_path / "hero.bvh")]) == 0
+    from dance_core.formats.fbx import FbxFormat
+
+    hero = FbxFormat().read(str(tmp_path / "hero.fbx")).skeleton_motion
+    expected = BvhFormat().read_motion(tmp_path / "hero.bvh")
+    assert hero.skeleton.names == expected.skeleton.names and hero.skeleton.units == "m"
+    assert np.abs(hero.positions() - 0.01 * expected.positions()).max() < 0.01
+
+
+@needs_blender
+def test_an_fbx_without_an_armature_or_damaged_is_one_line(tmp_path, capsys):
+    (tmp_path / "bad.fbx").write_bytes(b"Kaydara FBX Binary  \x00" + bytes(range(256)) * 4)
+    run = subprocess.run([BLENDER, "-b", "--factory-startup", "--python-expr", "import bpy; "
+                          f"bpy.ops.export_scene.fbx(filepath={str(tmp_path / 'cube.fbx')!r})"],
+                         capture_output=True, text=True, timeout=180, check=False)
+    assert run.returncode == 0 and (tmp_path / "cube.fbx").is_file()
+    for name, said in (("bad.fbx", "FBX import failed"), ("cube.fbx", "0 armatures")):
+        assert main(["convert", str(tmp_path / name), "-o", str(tmp_path / "x.bvh")]) != 0
+        err = capsys.readouterr().err.strip()
+        assert name in err and said in err and len(err.splitlines()) == 1, err
+        assert not (tmp_path / "x.bvh").exists()
+
+
+def test_reading_fbx_without_blender_is_one_line(tmp_path, monkeypatch, capsys):
+    (tmp_path / "in.fbx").write_bytes(b"Kaydara FBX Binary  \x00")
+    monkeypatch.setenv("PATH", str(tmp_path))  # no blender there
+    assert main(["convert", str(tmp_path / "in.fbx"), "-o", str(tmp_path / "out.bvh")]) != 0
+    err = capsys.readouterr().err.strip()
+    assert "reading FBX needs Blender" in err and len(err.splitlines()) == 1 and not (tmp_path / "out.bvh").exists()
+
+
+def test_end_bones_come_back_as_end_sites():
+    """A leaf named after its parent plus ``_end`` (an End Site that went through Blender) is an End Site
+    again, at its offset; the rest of the skeleton and its motion are untouched."""
+    from dance_core.formats.fbx import end_bones_as_end_sites
+    from dance_core.motion.motion import Motion
+    from dance_core.motion.skeleton import Skeleton
+
+    skel = Skeleton(["Hips", "Spine", "Spine_end", "Leg", "Leg_End", "Toe_end"], [-1, 0, 1, 0, 3, 3],
+                    np.array([[0, 1, 0], [0, .3, 0], [0, .2, 0], [.1, -.5, 0], [0, -.4, 0], [0, 0, .1]], float))
+    rot = np.random.default_rng(0).normal(size=(4, 6, 4))
+    rot /= np.linalg.norm(rot, axis=-1, keepdims=True)
+    motion = Motion(skel, 30.0, np.zeros((4, 3)), rot)
+    out = end_bones_as_end_sites(motion)
+    assert out.skeleton.names == ["Hips", "Spine", "Leg", "Toe_end"] and out.skeleton.parents == [-1, 0, 0, 2]
+    assert set(out.skeleton.end_sites) == {1, 2}
+    np.testing.assert_allclose(out.skeleton.end_sites[2], [0, -.4, 0])
+    np.testing.assert_allclose(out.positions(end_sites=True)[:, :3], motion.positions()[:, [0, 1, 3]])
+    np.testing.assert_allclose(out.positions(end_sites=True)[:, 4:], motion.positions()[:, [2, 4]], atol=1e-12)

@@ -165,10 +165,9 @@ def written_up(data: MotionData, format_name: str, up: str | None) -> MotionData
 
 def motion_data(motion: Motion, meta: dict | None = None) -> MotionData:
     """A skeletal motion as ``MotionData``: joint positions as the frame array (what feature formats write)."""
-    positions = motion.positions()
-    channels = [f"{name}.{axis}" for name in motion.skeleton.names for axis in "xyz"]
-    return MotionData(positions.reshape(len(positions), -1).astype("float32"), motion.fps, channels,
-                      dict(meta or {}), motion)
+    from dance_core.formats.glb import positions_data
+
+    return positions_data(motion, meta)
 
 
 def dance_markers(motion: Motion, registry: Registry, music: str | Path | None = None, given=None,

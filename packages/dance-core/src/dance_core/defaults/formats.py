@@ -27,8 +27,8 @@ def register_motion_formats(register):
     register("glb", fc.GlbFormatConfig, f"{_F}.glb:build",
              "glTF 2.0 binary: skeleton, skin, animation, a box body and markers (metres, Y up)", suffixes=(".glb",))
     register("fbx", fc.GlbFormatConfig, f"{_F}.fbx:build",
-             "FBX through Blender when installed: the glb's armature, body and baked animation (write only)",
-             suffixes=(".fbx",), write_only=True)
+             "FBX through Blender when installed: the glb's armature, body and baked animation written; "
+             "one armature's animation read", suffixes=(".fbx",))
     register("smpl", fc.SmplFormatConfig, f"{_F}.smpl:build",
              "AIST++ SMPL pickles (smpl_poses, smpl_trans) on your SMPL model's joints (model, --smpl-model), "
              "restricted unpickler", suffixes=(".pkl",))

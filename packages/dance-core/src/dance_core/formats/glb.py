@@ -335,6 +335,14 @@ def _placed(motion: Motion, nodes: list, parent: dict[int, int], root: int, wher
     return Motion(motion.skeleton, motion.fps, motion.root + t, motion.rotations, meta=motion.meta)
 
 
+def positions_data(motion: Motion, meta: dict[str, Any] | None = None) -> MotionData:
+    """A skeletal motion as ``MotionData``: its joint positions as the frame array (channels ``JOINT.x``...),
+    the motion attached."""
+    pos = motion.positions()
+    channels = [f"{name}.{axis}" for name in motion.skeleton.names for axis in "xyz"]
+    return MotionData(pos.reshape(len(pos), -1).astype(np.float32), motion.fps, channels, dict(meta or {}), motion)
+
+
 class GlbFormat:
     """The ``glb`` motion format: skeletal motion as glTF 2.0 binary (``body``: add the box body)."""
 
@@ -356,12 +364,10 @@ class GlbFormat:
     def read(self, path: str | Path) -> MotionData:
         """Joint positions as the frame array, the skeletal motion attached, markers in ``meta``."""
         motion, markers = self.read_motion(path)
-        pos = motion.positions()
-        channels = [f"{n}.{a}" for n in motion.skeleton.names for a in "xyz"]
         meta: dict[str, Any] = {"path": str(path)}
         if markers is not None:
             meta["markers"] = markers
-        return MotionData(pos.reshape(len(pos), -1).astype(np.float32), motion.fps, channels, meta, motion)
+        return positions_data(motion, meta)
 
     def write(self, motion: MotionData, path: str | Path) -> None:
         """Write the skeletal motion behind ``motion`` atomically, with ``meta["markers"]`` when present."""
