@@ -251,3 +251,51 @@ def test_quiet_still_prints_what_was_asked_for(tmp_path, capsys, quiet_inputs, a
     assert main(["-q", *_fill(argv, tmp_path, quiet_inputs)]) == 0
     out, err = capsys.readouterr()
     assert shown.replace("{t}", str(tmp_path)) in out and err == ""
+
+
+# ------------------------------------------------------------- summaries count every file they wrote
+
+COUNT_CASES = [  # (argv, what the summary says the count is, whether every file is named) in a fresh folder {t}
+    (["compose", "core-dance", "--checkpoint", "{k}", "--music", "{s}", "-o", "{t}", "--markers", "--format", "bvh",
+      "--format", "html"], r"(\d+) file\(s\) \(1 \.bvh, 1 \.html, 1 \.markers\.json\) in", True),
+    (["compose", "core-synthetic", "--checkpoint", "{c}", "--music", "{s}", "-o", "{t}", "--samples", "2"],
+     r"(\d+) file\(s\) in", True),
+    (["synth", "--out", "{t}", "--songs", "1", "--seconds", "2", "--rate", "8000", "--fps", "30"],
+     r": (\d+) files, 1 song\(s\) \(synth-0000 \.\.\. synth-0000\), each \.wav \.bvh \.beats \.texts \.sections",
+     False),
+    (["synth", "--out", "{t}", "--songs", "2", "--dances", "2", "--seconds", "2", "--rate", "8000", "--fps", "30"],
+     r": (\d+) files, 2 song\(s\) x 2 dances", False),
+    (["synth", "--out", "{t}", "--music", "{s}", "--dances", "2", "--fps", "30"], r": (\d+) files, 2 dance\(s\)",
+     False),
+    (["convert", "{b}", "-o", "{t}/c.bvh", "--markers"], None, True),
+    (["render", "{b}", "-o", "{t}/x.html", "-o", "{t}/y.html"], None, True),
+    (["evaluate", "--generated", "{d}", "--reference", "{d}", "-o", "{t}/r.json", "--plots", "{t}/plots"],
+     r"and (\d+) plot\(s\) in", False),
+    (["plugin", "new", "mine", "--kind", "head", "--out", "{t}"], r"\((?:head 'mine'), (\d+) files\)", False),
+]
+
+
+@pytest.mark.parametrize("argv, count, named", COUNT_CASES, ids=[" ".join(c[0][:2]) for c in COUNT_CASES])
+def test_a_summary_counts_every_file_written(tmp_path, capsys, quiet_inputs, argv, count, named):
+    import re
+
+    if argv[0] == "synth" and "--music" in argv:
+        from dance_core.data.beat_tracking import beat_tracker
+        from dance_core.registry import get_registry
+
+        if beat_tracker(get_registry()) is None:
+            pytest.skip("no beat tracker installed (dance-audio)")
+    if argv[0] == "evaluate":
+        pytest.importorskip("matplotlib")
+    code = main(_fill(argv, tmp_path, quiet_inputs))
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    files = sorted(p for p in tmp_path.rglob("*") if p.is_file() and not p.name.startswith("."))
+    report = out + err
+    if argv[0] == "evaluate":  # the report is named; the plots are counted
+        files = [p for p in files if p.parent.name == "plots"]
+    assert files
+    if count is not None:
+        assert int(re.search(count, report).group(1)) == len(files), report
+    if named:
+        assert all(str(p) in report or p.name in report for p in files), report

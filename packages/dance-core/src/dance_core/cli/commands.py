@@ -6,6 +6,7 @@ import json
 import sys
 import time
 from argparse import Namespace
+from pathlib import PurePath
 
 from dance_core.progress import say
 
@@ -40,7 +41,7 @@ def compose(args: Namespace) -> int:
     if args.json:
         print(json.dumps({**summary, **({"error": failed} if failed else {})}, indent=2))
         return 1 if failed else 0
-    say(args, *map(str, result.written))
+    say(args, *summary["files"])
     if not args.quiet:
         print(_compose_line(summary), file=sys.stderr)
     for song, why in result.failed:  # --keep-going: listed at the end, one line each
@@ -88,8 +89,9 @@ TEMPERATURE_WARN = 3.0
 
 
 def _compose_summary(recipe, result, out: str, wall: float) -> dict:
-    """Songs (this shard's; written and skipped), seconds and frames of dance generated, files written
-    and frames composed per second of wall time (model loading and writing included)."""
+    """Songs (this shard's; written and skipped), seconds and frames of dance generated, files written (the
+    dances, then their sidecars) and frames composed per second of wall time (model loading and writing
+    included)."""
     frames = result.frames
     return {
         "songs": [str(s) for s in result.songs],
@@ -100,7 +102,7 @@ def _compose_summary(recipe, result, out: str, wall: float) -> dict:
         "samples": recipe.compose.samples,
         "seconds": round(result.seconds, 3) if frames else None,
         "frames": frames if frames else None,
-        "files": [str(p) for p in result.written],
+        "files": [str(p) for p in [*result.written, *result.sidecars]],
         "out": str(out),
         "wall_seconds": round(wall, 3),
         "frames_per_second": round(frames / wall, 1) if frames and wall > 0 else None,
@@ -113,12 +115,22 @@ def _compose_line(summary: dict) -> str:
     seconds = "0.0" if summary["seconds"] is None else f"{summary['seconds']:.1f}"
     rate = "" if summary["frames_per_second"] is None else f", {summary['frames_per_second']:.0f} frames/s"
     line = (f"composed {len(summary['written_songs'])} song(s) x {summary['samples']}: {seconds} s of dance, "
-            f"{len(summary['files'])} file(s) in {summary['out']}{rate}")
+            f"{len(summary['files'])} file(s){_kinds(summary['files'])} in {summary['out']}{rate}")
     if summary["skipped_songs"]:
         line += f"; {len(summary['skipped_songs'])} song(s) skipped, already complete (--overwrite to redo)"
     if summary["shard"]:
         line += f"; shard {summary['shard']} holds {len(summary['songs'])} song(s)"
     return line
+
+
+def _kinds(files: list[str]) -> str:
+    """`` (2 .bvh, 2 .html, 2 .markers.json)``: the files by kind, when there are several kinds."""
+    from collections import Counter
+
+    from dance_core.motion.markers import SIDECAR
+
+    kinds = Counter(SIDECAR if f.endswith(SIDECAR) else PurePath(f).suffix for f in files)
+    return "" if len(kinds) < 2 else f" ({', '.join(f'{n} {kind}' for kind, n in kinds.items())})"
 
 
 def _parts(given: list[str] | None) -> dict[str, str] | None:

@@ -30,9 +30,11 @@ from dance_core.shards import Shard
 
 @dataclass
 class Composed:
-    """What one composition call did: files written, songs written, skipped and failed, frames generated."""
+    """What one composition call did: files written (dances, and the sidecars beside them), songs written,
+    skipped and failed, frames generated."""
 
     written: list[Path] = field(default_factory=list)
+    sidecars: list[Path] = field(default_factory=list)  #: ``.texts`` and ``.markers.json`` files written
     songs: list[str] = field(default_factory=list)
     skipped: list[str] = field(default_factory=list)
     frames: int = 0
@@ -158,7 +160,7 @@ def run_compose(inputs: ComposeInputs) -> Composed:
                     motions = generate_songs(model, songs, seed, recipe, device, progress)
                 for path, song, motion in zip(paths, songs, motions, strict=True):
                     result.written.extend(write_song(song, motion, stems[path], out, formats, ckpt, recipe, registry,
-                                                     delivery, edits))
+                                                     delivery, edits, result.sidecars))
                     result.frames += c.samples * song.n_frames
                     result.seconds += c.samples * song.n_frames / recipe.fps
             except (DanceError, OSError, ValueError) as exc:  # --keep-going: this song listed, the others written

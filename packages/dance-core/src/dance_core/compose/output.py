@@ -50,10 +50,12 @@ def complete(targets: list[Path], manifest: Path) -> bool:
 def write_song(
     song: Song, motion: np.ndarray, stems: list[str], out: Path, formats: list, ckpt: Checkpoint,
     recipe: Recipe, registry: Registry, delivery: Delivery | None = None, edits: Edits | None = None,
+    sidecars: list[Path] | None = None,
 ) -> list[Path]:
     """Decode, finish (on the beat, grounded: :func:`finished`), deliver (onto a rig, at a frame rate, in
     units: :mod:`dance_core.delivery`) and write one song's dances ``(samples, frames, D)`` as one output
-    set (every file or none, markers sidecars with ``compose.markers``); returns the motion files written."""
+    set (every file or none, markers sidecars with ``compose.markers``); returns the motion files written
+    and adds the sidecars written beside them (``.texts``, ``.markers.json``) to ``sidecars`` when given."""
     with OutputSet(manifest_path(out, song.path)) as files:
         for k, stem in enumerate(stems):
             values = ckpt.stats.motion.invert(motion[k, : song.n_frames])
@@ -70,7 +72,11 @@ def write_song(
             if song.texts:  # the spans beside the dance, for dance evaluate (MPD at text starts)
                 lines = "".join(f"{t.start:.4f}\t{t.end:.4f}\t{' '.join(t.text.split())}\n" for t in song.texts)
                 files.path(out / f"{stem}.texts").write_text(lines, encoding="utf-8")
-        return [p for p in files.targets() if p.suffix != ".texts" and not p.name.endswith(SIDECAR)]
+        targets = files.targets()  # (the set is committed when the block ends)
+    beside = [p for p in targets if p.suffix == ".texts" or p.name.endswith(SIDECAR)]
+    if sidecars is not None:
+        sidecars.extend(beside)
+    return [p for p in targets if p not in beside]
 
 
 def delivered(data: MotionData, song: Song, delivery: Delivery | None, recipe: Recipe, registry: Registry,

@@ -133,8 +133,7 @@ def write_dances(args: Any) -> int:
             raise DanceError("synth: need 1 <= --dances <= 1000 and --fps > 0")
         names = write_music_dances(args.out_dir, args.music, args.dances, args.seed, args.fps, args.tracker,
                                    args.mocap, tuple(args.mocap_exclude))
-        say(args,
-            f"{args.out_dir}: {len(names)} dances ({names[0]} ... {names[-1]}): song .bvh .beats .texts .sections")
+        say(args, _dataset_line(args.out_dir, names, f"{len(names)} dance(s)", "song"))
         return 0
     seconds = 60.0 if args.seconds is None else args.seconds
     if not (1 <= args.songs <= 100_000) or not (2.0 <= seconds <= 3600) or args.fps <= 0 or args.rate < 8000:
@@ -146,6 +145,15 @@ def write_dances(args: Any) -> int:
     names = write_dataset(args.out_dir, args.songs, args.seed, seconds, args.fps, rate=args.rate,
                           dances_per_song=args.dances, jobs=max(1, args.jobs), dancers=chosen, homogeneous=homogeneous,
                           mocap=args.mocap, mocap_exclude=tuple(args.mocap_exclude))
-    what = f"{args.songs} songs x {args.dances} dances" if args.dances > 1 else f"{len(names)} songs"
-    say(args, f"{args.out_dir}: {what} ({names[0]} ... {names[-1]}): .wav .bvh .beats .texts .sections")
+    what = f"{args.songs} song(s) x {args.dances} dances" if args.dances > 1 else f"{len(names)} song(s)"
+    say(args, _dataset_line(args.out_dir, names, what, ".wav"))
     return 0
+
+
+def _dataset_line(out: str, names: list[str], what: str, song: str) -> str:
+    """What ``dance synth --out`` wrote: every file counted (``write_clip`` writes the song and one file per
+    suffix of ``CLIP_SUFFIXES`` for each clip), the clips' first and last names and the kinds of files."""
+    from dance_core.synth.synthetic_dance import CLIP_SUFFIXES
+
+    files = len(names) * (1 + len(CLIP_SUFFIXES))
+    return f"{out}: {files} files, {what} ({names[0]} ... {names[-1]}), each {song} {' '.join(CLIP_SUFFIXES)}"

@@ -30,6 +30,9 @@ from dance_core.synth.music import synthesize
 #: the ``dancer`` of dances chained from real moves
 REAL = "real moves"
 
+#: what ``write_clip`` writes beside each clip's song, in order
+CLIP_SUFFIXES = (".bvh", ".beats", ".texts", ".sections")
+
 
 def make_clip(index: int, *, seed: int, seconds: float, bpm: tuple[float, float], rate: int, fps: float,
               dances_per_song: int = 1, tracker: str | None = None, dancers: list[str] | None = (CLASSIC,),
@@ -196,7 +199,7 @@ def write_clip(out: Path, clip: ClipSource) -> list[Path]:
     head += "\n"
     rows = "".join(f"{a:.4f}\t{b:.4f}\t{n}\n" for n, a, b in clip.meta["sections"])
     write_text(base.with_suffix(".sections"), head + rows)
-    return [song] + [base.with_suffix(s) for s in (".bvh", ".beats", ".texts", ".sections")]
+    return [song] + [base.with_suffix(s) for s in CLIP_SUFFIXES]
 
 
 def _link_or_copy(src: Path, dst: Path) -> None:
