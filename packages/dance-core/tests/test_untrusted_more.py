@@ -61,6 +61,86 @@ def test_an_hour_at_192_khz_takes_the_memory_of_one_piece(tmp_path, capsys):
     assert peak < 100 * 2**20, f"peak {peak / 2**20:.0f} MB"  # the whole song at once: about 900 MB
 
 
+#: sha256 of songs synthesized before the in-place mix-down (numpy 2.x, scipy 1.x as pinned in requirements-dev.txt):
+#: the same seed still gives the same song, bit for bit
+SONGS = [  # (seed, seconds, rate, bpm, sha256 of Song.audio)
+    (0, 8.0, 8000, 120.0, "66e111be6dbfcc73b0c1f7e2e997e349a48c91b77aa141d831d425b71f182f85"),
+    (1, 6.0, 22050, 97.0, "afdf7744ebe44d694a4d0d0d2a5ed97810bf33dcc5e883e08f15d5270bc92aed"),
+    (7, 5.0, 44100, 150.0, "cfb76c54bab4e9aa52181e273ef328b0d8ba809a8379df702bdba7ac879e9a18"),
+    (3, 9.0, 16000, 75.0, "2bb4bafcc28645f6ea8079b53ba3785bca5c03e1f3cf7d4a9036f415f6dad1d4"),
+]
+#: sha256 of the WAV files of ``dance synth --out D --songs 2 --seconds 7 --rate 11025 --fps 30 --seed 4`` before
+DATASET_WAVS = {"synth-0000.wav": "847e5874371565d68d53889cd49473fd3a2e869fdd16321b00c13c62c20351e1",
+                "synth-0001.wav": "d24d217f40c0cb909cb9307a09e9b9a378950f540136edbd9486b09d7fd6affe"}
+
+
+@pytest.mark.parametrize("seed, seconds, rate, bpm, digest", SONGS)
+def test_a_seed_still_synthesizes_the_same_song_bit_for_bit(seed, seconds, rate, bpm, digest):
+    import hashlib
+
+    from dance_core.synth.music import synthesize
+
+    song = synthesize(seconds, bpm, rate, np.random.default_rng(seed))
+    assert hashlib.sha256(song.audio.tobytes()).hexdigest() == digest, "the song changed (or numpy/scipy did)"
+
+
+def test_a_dataset_seed_still_writes_the_same_wav_files(tmp_path, capsys):
+    import hashlib
+
+    assert main(["-q", "synth", "--out", str(tmp_path), "--songs", "2", "--seconds", "7", "--rate", "11025",
+                 "--fps", "30", "--seed", "4"]) == 0
+    assert {n: hashlib.sha256((tmp_path / n).read_bytes()).hexdigest() for n in DATASET_WAVS} == DATASET_WAVS
+
+
+@pytest.mark.parametrize("n, seed", [(16, 0), (1000, 1), (65536, 2), (65537, 3), (200_001, 4)])
+def test_the_in_place_mix_down_sums_what_the_whole_arrays_summed(n, seed):
+    """The mix-down, the room and the background noise as they were written over whole arrays, bit for bit."""
+    from scipy.signal import lfilter, oaconvolve
+
+    from dance_core.synth import instruments as ins
+    from dance_core.synth.music import _mixdown
+
+    rng = np.random.default_rng(seed)
+    buses = {k: rng.standard_normal(n) * rng.uniform(0.1, 2) for k in ("drums", "bass", "pad", "keys", "lead")}
+    levels = {k: float(rng.uniform(0.2, 1.3)) for k in buses}
+    dry = sum(levels[k] * buses[k] for k in levels)
+    send = buses["pad"] + buses["keys"] + buses["lead"] + 0.3 * buses["drums"]
+    got_dry, got_send = _mixdown({k: v.copy() for k, v in buses.items()}, levels)
+    assert np.array_equal(got_dry, dry) and np.array_equal(got_send, send)
+    for rate in (8000, 11025, 44100):
+        x = rng.standard_normal(n)
+        q, room = max(1, rate // 5500), ins.reverb(x, rate, np.random.default_rng(seed), 0.5)
+        low = x[: n // q * q].reshape(-1, q).mean(axis=1) if q > 1 else x
+        t = np.arange(max(1, int(0.5 * rate // q))) / (rate // q)
+        ir = np.random.default_rng(seed).standard_normal(len(t)) * np.exp(-6.9 * t / 0.5) * np.minimum(1.0, t / 0.01)
+        wet = oaconvolve(low, ir / np.sqrt((ir**2).sum()))[: len(low)]
+        assert np.array_equal(room, np.interp(np.arange(n), np.arange(len(low)) * q + (q - 1) / 2, wet))
+        white = np.random.default_rng(seed).standard_normal(n)
+        pink = np.zeros(n)
+        for fc in (20.0, 200.0, 2000.0):
+            p = np.exp(-2 * np.pi * fc / rate)
+            pink += lfilter([1 - p], [1, -p], white) / np.sqrt(fc)
+        noise = pink / max(1e-12, pink.std()) + 0.2 * white
+        assert np.array_equal(ins.background(n, rate, np.random.default_rng(seed), 0.2),
+                              noise / max(1e-12, noise.std()))
+
+
+def test_a_dataset_song_takes_the_memory_its_estimate_says():
+    """Numpy's arrays are traced by tracemalloc: a song synthesized whole took 108 bytes a sample; mixed down in
+    place it takes its five buses and a little more, under what ``dance synth`` refuses by (SONG_BYTES)."""
+    from dance_core.synth.command import SONG_BYTES
+    from dance_core.synth.music import synthesize
+
+    n = 40 * 16000
+    tracemalloc.start()
+    try:
+        synthesize(40.0, 110.0, 16000, np.random.default_rng(0))
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert 40 < peak / n < SONG_BYTES, f"{peak / n:.1f} bytes a sample"
+
+
 @pytest.mark.parametrize("argv", [
     ["--songs", "1", "--seconds", "3600", "--rate", "192000"],
     ["--songs", "4", "--seconds", "600", "--rate", "96000", "--jobs", "4"],

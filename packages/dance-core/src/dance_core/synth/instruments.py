@@ -141,7 +141,10 @@ def reverb(x: np.ndarray, rate: int, rng: np.random.Generator, seconds: float) -
     t = _t(seconds, rate // q)
     ir = rng.standard_normal(len(t)) * np.exp(-6.9 * t / seconds) * np.minimum(1.0, t / 0.01)
     wet = oaconvolve(low, ir / np.sqrt((ir**2).sum()))[: len(low)]
-    return np.interp(np.arange(len(x)), np.arange(len(low)) * q + (q - 1) / 2, wet)
+    centres, out, piece = np.arange(len(low)) * q + (q - 1) / 2, np.empty(len(x)), 1 << 16
+    for i in range(0, len(x), piece):  # back at ``rate``, a piece at a time
+        out[i:i + piece] = np.interp(np.arange(i, min(i + piece, len(x)), dtype=np.float64), centres, wet)
+    return out
 
 
 def background(n: int, rate: int, rng: np.random.Generator, hiss: float) -> np.ndarray:
@@ -149,8 +152,15 @@ def background(n: int, rate: int, rng: np.random.Generator, hiss: float) -> np.n
     corners, each weighted by one over the square root of its corner) plus ``hiss`` (0..1) of white."""
     white = rng.standard_normal(n)
     pink = np.zeros(n)
-    for fc in (20.0, 200.0, 2000.0):
+    for fc in (20.0, 200.0, 2000.0):  # in place: three arrays of n at most (and std's one)
         p = np.exp(-2 * np.pi * fc / rate)
-        pink += lfilter([1 - p], [1, -p], white) / np.sqrt(fc)
-    x = pink / max(1e-12, pink.std()) + hiss * white
-    return x / max(1e-12, x.std())
+        low = lfilter([1 - p], [1, -p], white)
+        low /= np.sqrt(fc)
+        pink += low
+        del low
+    pink /= max(1e-12, pink.std())
+    white *= hiss
+    pink += white
+    del white
+    pink /= max(1e-12, pink.std())
+    return pink

@@ -176,6 +176,22 @@ class _Band:
         return buses
 
 
+#: samples mixed down at a time by :func:`_mixdown`
+_PIECE = 1 << 16
+
+
+def _mixdown(buses: dict[str, np.ndarray], levels: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The dry mix (every bus at its level) and the reverb's send (pad, keys and lead, a little drums),
+    computed a piece at a time into the drums' and the lead's buses: no memory beyond the buses'."""
+    dry, send = buses["drums"], buses["lead"]
+    for i in range(0, len(dry), _PIECE):
+        part = {k: bus[i:i + _PIECE] for k, bus in buses.items()}
+        mixed = sum(levels[k] * part[k] for k in levels)
+        send[i:i + _PIECE] = part["pad"] + part["keys"] + part["lead"] + 0.3 * part["drums"]
+        dry[i:i + _PIECE] = mixed
+    return dry, send
+
+
 def _arrange(sections, groove: Groove, rng: np.random.Generator) -> list[dict]:
     """Per section: drums played, which instrument keeps the pulse without drums, bass, keys, lead, loudness."""
     out = []
@@ -300,13 +316,22 @@ def synthesize(seconds: float, bpm: float, rate: int, rng: np.random.Generator, 
             band.hit("drums", -k / STEPS, kit["sticks"], 0.6 / k)
     levels = {"drums": 1.0, "bass": float(rng.uniform(0.5, 1.2)), "pad": float(rng.uniform(0.4, 1.3)),
               "keys": float(rng.uniform(0.3, 0.9)), "lead": float(rng.uniform(0.2, 0.5))}
-    buses = band.mix(n, levels)
-    dry = sum(levels[k] * buses[k] for k in levels)
-    send = buses["pad"] + buses["keys"] + buses["lead"] + 0.3 * buses["drums"]
-    audio = dry + float(rng.uniform(0.1, 0.35)) * ins.reverb(send, rate, rng, float(rng.uniform(0.3, 1.2)))
+    audio, send = _mixdown(band.mix(n, levels), levels)
+    wet_gain = float(rng.uniform(0.1, 0.35))
+    wet = ins.reverb(send, rate, rng, float(rng.uniform(0.3, 1.2)))
+    del send
+    wet *= wet_gain
+    audio += wet  # in place from here on: the same sums as before, a song at a time in about 50 bytes a sample
+    del wet
     rms = float(np.sqrt(np.mean(audio**2))) or 1e-9
-    audio = audio + rms * 10 ** (-snr_db / 20) * ins.background(n, rate, rng, float(rng.uniform(0.05, 0.3)))
-    audio = 0.9 * audio / max(1e-9, np.abs(audio).max())
+    noise_gain = rms * 10 ** (-snr_db / 20)
+    noise = ins.background(n, rate, rng, float(rng.uniform(0.05, 0.3)))
+    noise *= noise_gain
+    audio += noise
+    del noise
+    peak = max(1e-9, np.abs(audio).max())
+    audio *= 0.9
+    audio /= peak
     downbeats = beats[::bpb]
     bar_t = lambda bar: float(np.interp(bar * bpb, grid_b, grid_s))  # noqa: E731
     sec = [(nm, bar_t(a), min(seconds, bar_t(b))) for nm, a, b in sections]
