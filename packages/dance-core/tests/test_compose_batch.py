@@ -244,3 +244,36 @@ def test_a_song_level_encoder_is_not_batched():
     assert "reads the whole song" in batching_note(Model())
     Model.window = Window(motion_past=2, cond_past=2, cond_future=1)
     assert batching_note(Model()) is None
+
+
+@pytest.mark.parametrize("bad, batch_songs, raw", [
+    (0, 3, b"not audio at all, a text file"),
+    (1, 3, b"RIFF" + b"\x00" * 40),
+    (2, 2, b"\x00" * 100),  # alone in the second batch
+    (1, 2, b"RIFF\x24\x00\x00\x00WAVEfmt \x10\x00\x00\x00\x01\x00\x01\x00\x00\x00\x00\x00"),  # rate 0
+], ids=["text-first-of-3", "riff-zeros-middle-of-3", "zeros-alone", "rate-0-second-of-2"])
+def test_keep_going_lists_only_the_bad_song_of_a_batch(model, tmp_path, bad, batch_songs, raw):
+    """Issue 28: one bad song fails its batch; the batch is composed again a song at a time, so the songs
+    beside it are written (as they would be alone) and only the bad one is listed."""
+    import shutil
+
+    from dance_core.compose import ComposeOptions, resolve_inputs, run_compose
+
+    songs = []
+    for k, path in enumerate(model["songs"]):
+        songs.append(tmp_path / "songs" / Path(path).name)
+        songs[-1].parent.mkdir(exist_ok=True)
+        shutil.copyfile(path, songs[-1]) if k != bad else songs[-1].write_bytes(raw)
+    recipe = _recipe("compose.temperature=1", "compose.samples=2", f"compose.batch_songs={batch_songs}")
+    with registered_plugin(HeadsPlugin(), "batch-heads"):
+        options = ComposeOptions(music=[str(s) for s in songs], checkpoint=model["checkpoint"],
+                                 out_dir=str(tmp_path / "out"), keep_going=True, quiet=True)
+        result = run_compose(resolve_inputs(recipe, options))
+        alone = _compose(model, tmp_path / "alone")  # every good song in its own batch
+    assert [Path(song).name for song, _ in result.failed] == [f"s{bad}.wav"]
+    assert str(songs[bad]) in result.failed[0][1]
+    good = [f"s{k}-{i}.npz" for k in range(3) if k != bad for i in range(2)]
+    written, reference = _npz(tmp_path / "out"), _npz(tmp_path / "alone")
+    assert sorted(written) == good and alone.written
+    for name in good:
+        assert np.abs(written[name] - reference[name]).max() <= TOLERANCE

@@ -62,6 +62,20 @@ def test_keep_going_writes_the_good_songs_and_lists_the_bad_ones_at_the_end(tmp_
     assert "failed, the others written" not in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("bad", ["0.wav", "z.wav"])
+def test_keep_going_with_progress_shown_lists_a_bad_song_first_or_last(tmp_path, capsys, checkpoint, bad):
+    _catalogue(tmp_path / "songs", {bad: b"not audio at all, a text file"})
+    out = tmp_path / "out"
+    code = main(["compose", "core-synthetic", "--checkpoint", str(checkpoint), "--music", str(tmp_path / "songs"),
+                 "-o", str(out), "--keep-going"])
+    captured = capsys.readouterr()
+    assert code == 1 and "Traceback" not in captured.err and "Error:" not in captured.err, captured.err
+    assert f"dance: error: {tmp_path / 'songs' / bad}: cannot decode audio" in captured.err
+    assert captured.err.strip().splitlines()[-1].endswith("1 song(s) failed, the others written (--keep-going)")
+    assert len([p for p in out.iterdir() if p.suffix == ".npz"]) == 3 and bad.replace(".wav", ".npz") not in \
+        captured.out
+
+
 def test_quiet_train_prints_nothing_and_json_still_names_the_checkpoint(tmp_path, capsys):
     assert main(["-q", "train", "core-synthetic", *TINY, "-o", str(tmp_path / "run")]) == 0
     assert capsys.readouterr() == ("", "") and (tmp_path / "run" / "model.safetensors").is_file()

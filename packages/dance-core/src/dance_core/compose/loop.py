@@ -141,36 +141,52 @@ def run_compose(inputs: ComposeInputs) -> Composed:
                   file=sys.stderr)
     with progress_bar(options.quiet) as bar:
         task = bar.add_task("compose", total=len(todo), info=f"{len(todo)} song(s) × {c.samples}") if bar else None
+        done: set[str] = set()
+
+        def batch(paths: list[str], i: int) -> None:
+            """Load, generate and write these songs together (``done`` gains each one written)."""
+            seconds = edits.source.duration if edits.source is not None else c.seconds
+            songs = [load_song(path, stack, ckpt, seconds, registry, c.texts, tracker) for path in paths]
+            for song in songs:  # keyframes and spans inside the song, before generating
+                edits.check_song(song.n_frames, recipe.fps, song.path)
+            n, k = max(song.n_frames for song in songs), len(songs)
+            progress = (lambda t, i=i, n=n, k=k: bar.update(task, completed=i + k * t / n)) if bar else None
+            if bar:
+                names = ", ".join(song.name for song in songs)
+                bar.update(task, info=f"{names} ({i + len(songs)}/{len(todo)}) × {c.samples}")
+            if len(songs) == 1:
+                forced = edits.forced(ckpt, registry, songs[0].n_frames)
+                motions = [generate_song(model, songs[0], seed, recipe, device, progress, forced)]
+            else:
+                motions = generate_songs(model, songs, seed, recipe, device, progress)
+            for path, song, motion in zip(paths, songs, motions, strict=True):
+                result.written.extend(write_song(song, motion, stems[path], out, formats, ckpt, recipe, registry,
+                                                 delivery, edits, result.sidecars))
+                result.frames += c.samples * song.n_frames
+                result.seconds += c.samples * song.n_frames / recipe.fps
+                done.add(path)
+
         for i in range(0, len(todo), per_batch):
             paths = todo[i : i + per_batch]
             try:
-                seconds = edits.source.duration if edits.source is not None else c.seconds
-                songs = [load_song(path, stack, ckpt, seconds, registry, c.texts, tracker) for path in paths]
-                for song in songs:  # keyframes and spans inside the song, before generating
-                    edits.check_song(song.n_frames, recipe.fps, song.path)
-                n, k = max(song.n_frames for song in songs), len(songs)
-                progress = (lambda t, i=i, n=n, k=k: bar.update(task, completed=i + k * t / n)) if bar else None
-                if bar:
-                    names = ", ".join(song.name for song in songs)
-                    bar.update(task, info=f"{names} ({i + len(songs)}/{len(todo)}) × {c.samples}")
-                if len(songs) == 1:
-                    forced = edits.forced(ckpt, registry, songs[0].n_frames)
-                    motions = [generate_song(model, songs[0], seed, recipe, device, progress, forced)]
-                else:
-                    motions = generate_songs(model, songs, seed, recipe, device, progress)
-                for path, song, motion in zip(paths, songs, motions, strict=True):
-                    result.written.extend(write_song(song, motion, stems[path], out, formats, ckpt, recipe, registry,
-                                                     delivery, edits, result.sidecars))
-                    result.frames += c.samples * song.n_frames
-                    result.seconds += c.samples * song.n_frames / recipe.fps
-            except (DanceError, OSError, ValueError) as exc:  # --keep-going: this song listed, the others written
+                batch(paths, i)
+            except SONG_FAILURES as exc:  # --keep-going: this song listed, the others written
                 if not options.keep_going:
                     raise
-                result.failed.extend((path, describe_error(exc)) for path in paths)
+                if len(paths) == 1:
+                    result.failed.append((paths[0], describe_error(exc)))
+                for path in [p for p in paths if p not in done] if len(paths) > 1 else []:
+                    try:  # a batch that failed is composed again a song at a time: only its bad songs are listed
+                        batch([path], i)
+                    except SONG_FAILURES as alone:
+                        result.failed.append((path, describe_error(alone)))
             if bar:
-                bar.update(task, completed=i + len(songs))
+                bar.update(task, completed=i + len(paths))
     return result
 
+
+#: what a song that cannot be composed raises (``--keep-going`` lists it and carries on)
+SONG_FAILURES = (DanceError, OSError, ValueError)
 
 #: the options that give each edit (else it comes from the recipe's compose:)
 EDIT_OPTIONS = {"keyframes": "--keyframe", "keep_parts": "--keep", "face": "--face", "max_turn": "--max-turn",
