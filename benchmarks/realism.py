@@ -16,7 +16,9 @@ half a beat off their music (locking must fail). ``--raw`` models are also compo
 ``compose.beat_align=false``: the model's own timing, before compose moves its accents onto the beats.
 *Spread*: the mean distance between two dances of one song (standardised mean statistics), beside the
 same between two takes of one real dancer (CMU subjects 05, 60, 61; their first ``--seconds``).
-Measures: :mod:`dance_core.evaluation.realism`.
+*FID_k*: ``dance evaluate``'s ``fid-k`` (AIST++'s kinetic features) of each set's 4-s windows (every 2 s)
+against the held-out takes'; its scale row: the takes' first halves against their second halves. Measures:
+:mod:`dance_core.evaluation.realism`.
 """
 
 from __future__ import annotations
@@ -155,6 +157,29 @@ def row(name: str, windows: np.ndarray, reference: np.ndarray, scale: float, loc
     return out
 
 
+def kinetic_fid(motions: list, reference: list, window: float = 4.0, hop: float = 2.0) -> float:
+    """FID_k (AIST++'s kinetic features; ``dance evaluate``'s ``fid-k``) of the ``window``-second windows
+    (every ``hop`` s) of motions against those of reference motions: whole takes are too few (7) for a
+    covariance of 72 features; NaN with fewer than two windows on a side."""
+    from dance_core import JointClip
+    from dance_core.api import EvaluateOptions, evaluate
+
+    def clips(ms: list, tag: str) -> list:
+        out = []
+        for m in ms:
+            size, step = int(round(window * m.fps)), int(round(hop * m.fps))
+            for start in range(0, m.n_frames - size + 1, step):
+                w = m.crop(start, start + size)
+                out.append(JointClip(f"{tag}{len(out)}", w.positions(), w.fps, list(w.skeleton.names)))
+        return out
+
+    if len(clips(motions, "g")) < 2 or len(clips(reference, "r")) < 2:
+        return float("nan")
+
+    report = evaluate(clips(motions, "g"), clips(reference, "r"), EvaluateOptions(metrics=["fid-k"]))
+    return float(report.values().get("FID_k", float("nan")))
+
+
 def locking_of(motion, beats) -> dict:
     """Body locking of one dance."""
     from dance_core.evaluation import body_locking
@@ -193,9 +218,13 @@ def main(argv: list[str] | None = None) -> None:
              "windows": len(first) + len(second), "inside": len(STATISTICS), "outside": [], "medians": {},
              "spread": spread([g for g in dancers.values() if len(g) > 1], reference)},
             row("real: the other CMU takes (training pool)", pool, reference, scale)]
+    held = [takes[n] for n in HELD_OUT]
+    rows[0]["fid_k"] = kinetic_fid([halves(m)[0] for m in held], [halves(m)[1] for m in held])
+    rows[1]["fid_k"] = kinetic_fid([m for n, m in takes.items() if n not in HELD_OUT], held)
     syn = synthetic(6, args.seconds)
     rows.append(row("synthetic dancer", np.concatenate([stats(m) for m, _ in syn]), reference, scale,
                     [locking_of(m, b) for m, b in syn]))
+    rows[-1]["fid_k"] = kinetic_fid([m for m, _ in syn], held)
     shifted = [(m, b + 0.5 * float(np.median(np.diff(b)))) for m, b in syn]
     rows.append(row("control: synthetic dancer half a beat off", np.concatenate([stats(m) for m, _ in shifted]),
                     reference, scale, [locking_of(m, b) for m, b in shifted]))
@@ -206,6 +235,7 @@ def main(argv: list[str] | None = None) -> None:
     rows.append(row("control: rigid T-pose bouncing on the beat", np.concatenate([stats(m) for m in statues]),
                     reference, scale, [locking_of(m, b[b < seconds]) for m, b in zip(statues, beats.values(),
                                                                                     strict=True)]))
+    rows[-1]["fid_k"] = kinetic_fid(statues, held)
     rows.append(row("control: still figure", stats(still(seconds)), reference, scale))
     with tempfile.TemporaryDirectory() as tmp:
         # the choreography the bundled default learns from: real moves on each song's beats (dance synth --mocap)
@@ -217,15 +247,17 @@ def main(argv: list[str] | None = None) -> None:
                 locks.append(locking_of(*moved[-1]))
         rows.append(row(f"real-moves choreography, training pool ({len(chained)} dances)", np.concatenate(chained),
                         reference, scale, locks))
+        rows[-1]["fid_k"] = kinetic_fid([m for m, _ in moved], held)
         off = [locking_of(m, b + 0.5 * float(np.median(np.diff(b)))) for m, b in moved]
         rows.append(row("control: real-moves choreography half a beat off", np.concatenate(chained), reference,
                         scale, off))
         for model, sets in [(m, ()) for m in args.models] + [(m, ("compose.beat_align=false",)) for m in args.raw]:
-            dances, locks, groups = [], [], []
+            dances, locks, groups, motions = [], [], [], []
             for song in songs:
                 group = []
                 for m in compose(model, song, Path(tmp) / model / str(len(sets)) / song.stem, args.samples, seconds,
                                  *sets):
+                    motions.append(m)
                     group.append(stats(m))
                     locks.append(locking_of(m, beats[song.stem][beats[song.stem] < m.duration]))
                 dances += group
@@ -233,17 +265,19 @@ def main(argv: list[str] | None = None) -> None:
             label = f"{model}{', raw model (compose.beat_align=false)' if sets else ''}"
             rows.append(row(f"{label} ({len(dances)} dances on {len(songs)} fixture songs)", np.concatenate(dances),
                             reference, scale, locks, groups))
+            rows[-1]["fid_k"] = kinetic_fid(motions, held)
     print(f"reference: {len(HELD_OUT)} held-out CMU takes, {len(reference)} windows of 4 s every {HOP} s; "
           f"{time.time() - started:.0f} s")
     print("| dancer | Fréchet distance | × real scale | statistics inside real 10-90 % | outside | body locking "
-          "| wrong-tempo control | accents per beat | spread (one song / one dancer) |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "| wrong-tempo control | accents per beat | spread (one song / one dancer) | FID_k |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         lk = (f"{r['locking']:.2f} | {r['control']:.2f} | {r['accents_per_beat']:.2f}" if "locking" in r
               else "– | – | –")
         sp = f"{r['spread']:.2f}" if "spread" in r else "–"
+        fid = f"{r['fid_k']:.1f}" if np.isfinite(r.get("fid_k", float("nan"))) else "–"
         print(f"| {r['name']} | {r['distance']:.1f} | {r['ratio']:.1f} | {r['inside']}/{len(STATISTICS)} | "
-              f"{', '.join(r['outside']) or '–'} | {lk} | {sp} |")
+              f"{', '.join(r['outside']) or '–'} | {lk} | {sp} | {fid} |")
     lo, med, hi = (np.percentile(reference, q, axis=0) for q in (10, 50, 90))
     print("\n| statistic | real 10 % | real median | real 90 % | " + " | ".join(r["name"].split(" (")[0]
                                                                                for r in rows[1:]) + " |")
