@@ -1,17 +1,24 @@
-"""``dance live`` at real time: latency, drops and beat locking of the live dance against the offline one.
+"""``dance live`` at real time: latency, drops, beat locking, grounding and motion of the live dance against
+the offline one.
 
 For each song, the song is piped as raw s16le PCM into ``dance live default --input - --output - --json``
 at ``--speed`` times real time (1 = as a player would), and the JSON Lines frames read back:
 
-* **latency** (ms, p50/p95/max): from the arrival of the audio block that completes the newest music frame
-  a dance frame reads, to the frame handed to the sinks (the summary of ``--json``);
+* **latency** (ms, p50/p95/max, and per minute of music): from the arrival of the audio block that completes
+  the newest music frame a dance frame reads, to the frame handed to the sinks (the summary of ``--json``);
 * **drops**: frames the model skipped because it fell more than 0.25 s behind;
 * **beat locking** (``dance_core.evaluation.body_locking``: the body's own accents on the music's
   beats, whatever the phase, against the wrong-tempo control) of the live dance and of the offline dance
-  of the same song (``dance compose``'s generation through ``dance_core.api.Composer``, not grounded:
-  live poses are not), on the offline beat tracker's beats, over the whole song and after its first 5 s.
+  of the same song (``dance compose``'s: generated, grounded and beat-aligned, through
+  ``dance_core.api.Composer``), on the offline beat tracker's beats, over the whole song and after its
+  first 5 s;
+* **grounding and motion** (``dance_core.evaluation.quality_scores`` on the soles): frames floating (both
+  soles over 5 cm up), foot skating, mean joint speed and jerk, live against offline.
 
-    python benchmarks/live.py [--songs A.ogg B.ogg] [--speed 1] [--json]
+``--minutes M`` instead plays one long song, the fixture songs one after another until ``M`` minutes, and
+reports the latency per minute (does it grow?); no offline dance.
+
+    python benchmarks/live.py [--songs A.ogg B.ogg] [--speed 1] [--minutes 10] [--json]
 """
 
 from __future__ import annotations
@@ -32,19 +39,33 @@ AUDIO = ROOT.parent / "shared" / "fixtures" / "audio"
 RATE = 22050
 
 
-def pcm(path: Path) -> tuple[bytes, float]:
-    """A song as s16le mono PCM at RATE, and its length in seconds."""
+def samples(path: Path) -> np.ndarray:
+    """A song's mono samples at RATE (dance-audio's reader)."""
     from dance_audio.timing import resample
     from dance_core import get_registry, load_audio
 
     audio = load_audio(path, get_registry())
-    y = resample(audio.samples, audio.rate, RATE)
-    return (np.clip(y, -1, 1) * 32767).astype("<i2").tobytes(), len(y) / RATE
+    return resample(audio.samples, audio.rate, RATE)
 
 
-def live(path: Path, speed: float) -> tuple[dict, list[dict]]:
-    """The summary and frames of ``dance live`` fed the song at ``speed`` times real time."""
-    data, _ = pcm(path)
+def pcm(y: np.ndarray) -> bytes:
+    """Samples as s16le mono PCM."""
+    return (np.clip(y, -1, 1) * 32767).astype("<i2").tobytes()
+
+
+def long_song(minutes: float) -> np.ndarray:
+    """The fixture songs one after another, again from the first, cut at ``minutes``."""
+    songs = [samples(p) for p in sorted(AUDIO.glob("*.ogg"))]
+    parts, total = [], 0
+    while total < minutes * 60 * RATE:
+        for y in songs:
+            parts.append(y)
+            total += len(y)
+    return np.concatenate(parts)[: int(minutes * 60 * RATE)]
+
+
+def live(data: bytes, speed: float) -> tuple[dict, list[dict]]:
+    """The summary and frames of ``dance live`` fed PCM ``data`` at ``speed`` times real time."""
     env = dict(os.environ, OMP_NUM_THREADS="1")
     proc = subprocess.Popen([sys.executable, "-m", "dance_core.cli.main", "live", "default", "--input", "-", "--rate",
                              str(RATE), "--output", "-", "--json"], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
@@ -80,47 +101,86 @@ def locking(positions: np.ndarray, fps: float, names: list[str], beats: np.ndarr
     return body_locking(positions[first:], fps, names, music)
 
 
+def floor_and_motion(motion, beats: np.ndarray) -> dict:
+    """Floating, skating, speed and jerk of a dance (``quality_scores`` on its soles)."""
+    from dance_core.evaluation import quality_scores
+    from dance_core.motion.grounding import soles
+
+    p = motion.positions()
+    q = quality_scores(p, motion.fps, beats, motion.skeleton.names, motion.skeleton.parents, soles(motion))
+    return {k: q[k] for k in ("float", "below_floor", "skating", "speed", "jerk")}
+
+
+def minutes_table(summary: dict) -> str:
+    """The latency per minute of music, one line."""
+    return "; ".join(f"min {i + 1}: p50 {m['p50']:.1f} p95 {m['p95']:.1f} max {m['max']:.0f}"
+                     for i, m in enumerate(summary["latency_ms_by_minute"]))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--songs", nargs="+", type=Path, default=[AUDIO / "vibe_ace.ogg", AUDIO / "lets_go_fishin.ogg"])
     parser.add_argument("--speed", type=float, default=1.0)
+    parser.add_argument("--minutes", type=float, help="play one song this long (the fixtures in a row): latency only")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
+
+    if args.minutes:
+        summary, frames = live(pcm(long_song(args.minutes)), args.speed)
+        row = {"song": f"fixtures in a row, {args.minutes:g} min", "seconds": summary["music_seconds"],
+               "frames": summary["frames"], "dropped": summary["dropped_frames"], "latency_ms": summary["latency_ms"],
+               "latency_ms_by_minute": summary["latency_ms_by_minute"], "beat_lock": summary.get("beat_lock")}
+        lat = row["latency_ms"]
+        print(json.dumps(row, indent=2) if args.json else
+              f"{row['song']}: {row['frames']} frames, {row['dropped']} dropped, latency p50 {lat['p50']:.1f} p95 "
+              f"{lat['p95']:.1f} max {lat['max']:.1f} ms; {minutes_table(summary)}")
+        return
 
     import torch
 
     from dance_audio.beats import track_beats
     from dance_core import get_registry, load_audio
     from dance_core.api import Composer, load_recipe
+    from dance_core.motion.motion import Motion
 
     torch.set_num_threads(1)
     composer = Composer(load_recipe("default"))
+    skeleton = composer.checkpoint.motion.skeleton
+    names = skeleton.names
     rows = []
     for song in args.songs:
-        summary, frames = live(song, args.speed)
-        names = composer.checkpoint.motion.skeleton.names
+        summary, frames = live(pcm(samples(song)), args.speed)
         fps = summary["fps"]
+        live_motion = Motion(skeleton, fps, np.array([f["root"] for f in frames]),
+                             np.array([f["rotations"] for f in frames]))
         live_pos = np.array([f["positions"] for f in frames])
         beats = track_beats(load_audio(song, get_registry())).times
         s = composer.song(song)
-        offline = composer.generate(s)
-        data = composer.checkpoint.motion.decode(composer.checkpoint.stats.motion.invert(offline[0]), fps,
-                                                 composer.registry)
-        off_pos = data.skeleton_motion.positions()
+        offline = composer.dances(s, composer.generate(s))[0]  # as dance compose writes it
+        off_motion = offline.skeleton_motion
+        off_pos = off_motion.positions()
         lat = summary["latency_ms"]
         row = {"song": song.name, "seconds": summary["music_seconds"], "speed": args.speed,
                "frames": summary["frames"], "dropped": summary["dropped_frames"], "latency_ms": lat,
-               "music_delay_s": summary["music_delay_s"],
+               "latency_ms_by_minute": summary["latency_ms_by_minute"],
+               "music_delay_s": summary["music_delay_s"], "beat_lock": summary.get("beat_lock"),
                "live": locking(live_pos, fps, names, beats), "offline": locking(off_pos, fps, names, beats),
                "live_after_5s": locking(live_pos, fps, names, beats, 5.0),
-               "offline_after_5s": locking(off_pos, fps, names, beats, 5.0)}
+               "offline_after_5s": locking(off_pos, fps, names, beats, 5.0),
+               "live_floor_motion": floor_and_motion(live_motion, beats),
+               "offline_floor_motion": floor_and_motion(off_motion, beats),
+               "offline_meta": {k: offline.meta.get(k) for k in ("grounding", "beat_align")}}
         rows.append(row)
         if not args.json:
+            fl, fo = row["live_floor_motion"], row["offline_floor_motion"]
             print(f"{song.name}: {row['frames']} frames, {row['dropped']} dropped, latency p50 {lat['p50']:.1f} "
                   f"p95 {lat['p95']:.1f} max {lat['max']:.1f} ms; locking live {row['live']['locking']:.2f} "
                   f"(control {row['live']['control']:.2f}) offline {row['offline']['locking']:.2f} "
                   f"(control {row['offline']['control']:.2f}); after 5 s live {row['live_after_5s']['locking']:.2f} "
-                  f"offline {row['offline_after_5s']['locking']:.2f}", flush=True)
+                  f"offline {row['offline_after_5s']['locking']:.2f}; float live {fl['float']:.3f} offline "
+                  f"{fo['float']:.3f}, skating {fl['skating']:.3f} / {fo['skating']:.3f} m/s, speed "
+                  f"{fl['speed']:.2f} / {fo['speed']:.2f} m/s, jerk {fl['jerk']:.0f} / {fo['jerk']:.0f} m/s^3",
+                  flush=True)
     if args.json:
         print(json.dumps(rows, indent=2))
 

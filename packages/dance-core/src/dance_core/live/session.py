@@ -40,17 +40,27 @@ class LiveStats:
     frames: int = 0
     dropped: int = 0
     latencies: list[float] = field(default_factory=list)
+    times: list[float] = field(default_factory=list)  # the music time (s) of each frame whose latency is kept
     music_seconds: float = 0.0
     wall_seconds: float = 0.0
     stopped: str = "end of input"
 
     def summary(self, extra: dict[str, Any]) -> dict[str, Any]:
-        """A JSON-able report: frames, drops, the latency distribution in ms."""
-        lat = np.asarray(self.latencies) * 1000.0
-        dist = ({k: round(float(np.percentile(lat, q)), 2) for k, q in (("p50", 50), ("p95", 95), ("p99", 99))}
-                | {"max": round(float(lat.max()), 2), "mean": round(float(lat.mean()), 2)}) if len(lat) else {}
+        """A JSON-able report: frames, drops, the latency distribution in ms, over the whole run and per minute
+        of music (``latency_ms_by_minute``: is it growing?)."""
+        lat, minute = np.asarray(self.latencies) * 1000.0, np.asarray(self.times, np.float64) // 60
+        by_minute = [_distribution(lat[minute == m]) for m in np.unique(minute)] if len(lat) > 0 else []
         return {"frames": self.frames, "dropped_frames": self.dropped, "music_seconds": round(self.music_seconds, 3),
-                "wall_seconds": round(self.wall_seconds, 3), "stopped": self.stopped, "latency_ms": dist, **extra}
+                "wall_seconds": round(self.wall_seconds, 3), "stopped": self.stopped, "latency_ms": _distribution(lat),
+                "latency_ms_by_minute": by_minute, **extra}
+
+
+def _distribution(lat: np.ndarray) -> dict[str, float]:
+    """p50, p95, p99, max and mean of latencies (ms); empty for none."""
+    if not len(lat):
+        return {}
+    return ({k: round(float(np.percentile(lat, q)), 2) for k, q in (("p50", 50), ("p95", 95), ("p99", 99))}
+            | {"max": round(float(lat.max()), 2), "mean": round(float(lat.mean()), 2)})
 
 
 def frame_message(index: int, fps: float, pose: Pose) -> dict:
@@ -203,6 +213,7 @@ class LiveSession:
             sink.send(message)
         newest = min(index + self.composer.model.window.cond_future - 1, len(self.arrivals) - 1)
         self.stats.latencies.append(time.perf_counter() - self.arrivals[newest])
+        self.stats.times.append(index / self.fps)
         self.stats.frames += 1
 
 

@@ -315,9 +315,10 @@ class CausalGrounding:
     The steps of :func:`ground` made causal: contacts by the same thresholds (:func:`contact_thresholds`;
     the floor is the lowest sole over the last ``floor_window``, the speeds backward differences; no
     flicker removal, which needs the frames after); the height correction follows the lowest contact
-    sole onto ``y = 0`` through a one-pole filter with time constant ``smoothing`` (kept through a jump,
-    the lowest sole of the last ``max_airborne`` / 2 after that), never leaving a foot below the floor;
-    a foot is pinned where its contact began (the span's mean is not known yet), released over ``blend``.
+    sole onto ``y = 0`` (kept through a jump, the lowest sole of the last ``max_airborne`` / 2 after that;
+    raised so that no foot is below the floor) through two one-pole filters in a row, each with time
+    constant ``smoothing`` / 2, so its speed changes smoothly too (a foot that dips is raised within a
+    few frames, not at once: clamping it jerked the whole body); a foot is pinned where its contact began (the span's mean is not known yet), released over ``blend``.
     Call it with each frame's root ``(3,)`` and local rotations ``(J, 4)``; it returns the grounded root,
     rotations and world joint positions. A skeleton without recognisable feet passes through."""
 
@@ -328,7 +329,7 @@ class CausalGrounding:
         self.options = options = options or GroundingOptions()
         self.feet = find_feet(skeleton)
         self.unit = metres_per_unit(skeleton, self.feet, options) if self.feet else 1.0
-        self.alpha = 1.0 - np.exp(-1.0 / max(options.smoothing * self.fps, 1e-9))
+        self.alpha = 1.0 - np.exp(-2.0 / max(options.smoothing * self.fps, 1e-9))
         self.blend = int(round(options.blend * self.fps))
         self.recent: deque[float] = deque(maxlen=3)  # lowest soles of the last frames (a one-frame dip is no floor)
         self.floor: deque[float] = deque(maxlen=max(1, int(round(options.floor_window * self.fps))))
@@ -339,7 +340,7 @@ class CausalGrounding:
         self.pins = np.zeros((2, 2))
         self.released = np.full(2, self.blend + 1)  # frames since each foot's contact ended
         self.since = self.airborne + 1  # frames since a contact
-        self.target = self.correction = None
+        self.target = self.correction = self.filtered = None
 
     def __call__(self, root: np.ndarray, rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The frame grounded: ``(root, rotations, positions)``."""
@@ -366,10 +367,14 @@ class CausalGrounding:
             self.since += 1
             if self.target is None or self.since > self.airborne:
                 self.target = -min(self.lows)
-        self.correction = self.target if self.correction is None else \
-            self.correction + self.alpha * (self.target - self.correction)
+        goal = max(self.target, -float(heights.min()))  # no foot below the floor: a goal, not a clamp (jerk)
+        if self.correction is None:
+            self.filtered = self.correction = goal
+        else:  # two one-pole filters in a row: the correction's speed changes smoothly too
+            self.filtered += self.alpha * (goal - self.filtered)
+            self.correction += self.alpha * (self.filtered - self.correction)
         lifted = motion.root.copy()
-        lifted[0, 1] += max(self.correction, -float(heights.min()))
+        lifted[0, 1] += self.correction
         ankles = pos[0, list(self.feet[::2])][:, [0, 2]]
         self.pins[began] = ankles[began]
         fade = 1.0 - np.minimum(self.released, self.blend + 1) / (self.blend + 1)
