@@ -171,16 +171,17 @@ def motion_data(motion: Motion, meta: dict | None = None) -> MotionData:
 
 
 def dance_markers(motion: Motion, registry: Registry, music: str | Path | None = None, given=None,
-                  tracker: str = "flux"):
+                  tracker: str = "flux", start: float = 0.0):
     """The markers a delivered dance carries: the song's beats, downbeats and sections when ``music`` is
-    given (:func:`dance_core.evaluation.song_markers.song_markers`), else ``given`` (markers read with the
-    motion) or none; the foot contacts always found on ``motion`` itself."""
+    given (:func:`dance_core.evaluation.song_markers.song_markers`; the dance starting ``start`` seconds
+    into the song, times from its first frame), else ``given`` (markers read with the motion) or none;
+    the foot contacts always found on ``motion`` itself."""
     from dance_core.motion.markers import Markers, contact_spans
 
     if music is not None:
         from dance_core.evaluation.song_markers import song_markers
 
-        markers = song_markers(music, registry, motion, tracker=tracker)
+        markers = song_markers(music, registry, motion, start=start, tracker=tracker)
     else:
         markers = given or Markers()
     markers.contacts = contact_spans(motion) or markers.contacts

@@ -25,7 +25,7 @@ def compose(args: Namespace) -> int:
     recipe = _recipe(args)
     options = api.ComposeOptions(
         music=args.music, checkpoint=args.checkpoint, out_dir=args.out, samples=args.samples,
-        seconds=args.seconds, temperature=args.temperature, seed_motion=args.seed_motion, texts=texts,
+        seconds=args.seconds, start=args.start, temperature=args.temperature, seed_motion=args.seed_motion, texts=texts,
         formats=args.formats, markers=args.markers, rig=args.rig, rig_map=args.rig_map, output_fps=args.output_fps,
         units=args.units, up=args.up, keyframes=args.keyframes, keep_parts=_parts(args.keep_parts), face=args.face,
         max_turn=args.max_turn, loop=args.loop, from_motion=args.from_motion, regenerate=args.regenerate,

@@ -146,6 +146,9 @@ def _compose_parser(sub) -> None:
                    "(default: compose.temperature)")
     p.add_argument("--seconds", type=bounded_number(float, 0.0, 3600.0, above=True, unit="s"),
                    help="length of each dance in seconds, up to 3600 (default: the whole song)")
+    p.add_argument("--start", type=bounded_number(float, 0.0, unit="s"), metavar="SECONDS",
+                   help="compose from this time in the song on (default: compose.start, 0); --text spans stay in "
+                        "the song's time")
     p.add_argument("--seed-motion", metavar="FILE", help="motion file to start from, or 'rest'")
     smpl_model_option(p)
     p.add_argument("--format", dest="formats", action="append", metavar="NAME",

@@ -48,11 +48,14 @@ class Composer:
                              self.recipe.format_options)
         return torch.from_numpy(values)
 
-    def song(self, path: str | Path, seconds: float | None = None, texts: list[TextSpec] | None = None) -> Song:
-        """A song's standardized features (``seconds``, ``texts``: default the recipe's ``compose:`` values)."""
+    def song(self, path: str | Path, seconds: float | None = None, texts: list[TextSpec] | None = None,
+             start: float | None = None) -> Song:
+        """A song's standardized features (``seconds``, ``texts``, ``start``: default the recipe's ``compose:``
+        values)."""
         c, tracker = self.recipe.compose, beat_tracker_of(self.recipe, self.registry)
         return load_song(str(path), self.stack, self.checkpoint, c.seconds if seconds is None else seconds,
-                         self.registry, c.texts if texts is None else texts, tracker)
+                         self.registry, c.texts if texts is None else texts, tracker,
+                         c.start if start is None else start)
 
     def generate(self, song: Song, seed: torch.Tensor | None = None, progress: Any = None) -> np.ndarray:
         """``compose.samples`` dances of one song ``(samples, frames, D)``, normalized, as ``dance compose``

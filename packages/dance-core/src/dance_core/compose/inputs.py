@@ -21,9 +21,9 @@ from dance_core.registry import Registry, get_registry
 from dance_core.shards import Shard
 
 #: the options that override a field of the recipe's ``compose:`` section
-SETTINGS = ("samples", "seconds", "temperature", "seed_motion", "texts", "formats", "markers", "rig", "rig_map",
-            "output_fps", "units", "up", "keyframes", "keep_parts", "face", "max_turn", "loop", "from_motion",
-            "regenerate")
+SETTINGS = ("samples", "seconds", "start", "temperature", "seed_motion", "texts", "formats", "markers", "rig",
+            "rig_map", "output_fps", "units", "up", "keyframes", "keep_parts", "face", "max_turn", "loop",
+            "from_motion", "regenerate")
 
 
 @dataclass(frozen=True)
@@ -41,6 +41,7 @@ class ComposeOptions:
     out_dir: str | Path | None = None
     samples: int | None = None
     seconds: float | None = None
+    start: float | None = None
     temperature: float | None = None
     seed_motion: str | Path | None = None
     texts: Sequence[TextSpec | str] | None = None

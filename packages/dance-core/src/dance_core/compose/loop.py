@@ -100,6 +100,9 @@ def run_compose(inputs: ComposeInputs) -> Composed:
                              up_option=_option(options, "up", "--up"))
     if c.markers:
         _need_beat_tracker(recipe, registry, _option(options, "markers", "--markers"))
+    if c.start and c.from_motion:
+        raise RecipeError(f"{_option(options, 'start', '--start')}: not with "
+                          f"{_option(options, 'from_motion', '--from')} (the dance to edit sets where its song starts)")
     stems = dict(zip(songs_in, output_stems(songs_in, c.samples), strict=True))  # every song's, before sharding
     shard = options.shard
     mine = shard.select(songs_in) if shard else songs_in
@@ -146,7 +149,7 @@ def run_compose(inputs: ComposeInputs) -> Composed:
         def batch(paths: list[str], i: int) -> None:
             """Load, generate and write these songs together (``done`` gains each one written)."""
             seconds = edits.source.duration if edits.source is not None else c.seconds
-            songs = [load_song(path, stack, ckpt, seconds, registry, c.texts, tracker) for path in paths]
+            songs = [load_song(path, stack, ckpt, seconds, registry, c.texts, tracker, c.start) for path in paths]
             for song in songs:  # keyframes and spans inside the song, before generating
                 edits.check_song(song.n_frames, recipe.fps, song.path)
             n, k = max(song.n_frames for song in songs), len(songs)

@@ -99,7 +99,7 @@ def delivered(data: MotionData, song: Song, delivery: Delivery | None, recipe: R
 
         tracker = beat_tracker_of(recipe, registry) or "flux"
         try:
-            data.meta["markers"] = dance_markers(motion, registry, song.path, tracker=tracker)
+            data.meta["markers"] = dance_markers(motion, registry, song.path, tracker=tracker, start=song.start)
         except DataError:  # a song with too few beats: its dance's foot contacts only
             data.meta["markers"] = dance_markers(motion, registry)
     return data

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +32,7 @@ class Song:
     texts: tuple[TextSpan, ...] = ()
     spans: SpanTable | None = None
     beats: np.ndarray | None = None  # beat times (s), for compose.beat_align
+    start: float = 0.0  # where the dance's first frame is in the song (s; compose.start)
 
 
 def seed_motion(
@@ -53,8 +54,9 @@ def seed_motion(
     return values[len(values) - frames :]
 
 
-def song_texts(texts: list[TextSpec], duration: float, where: str) -> tuple[TextSpan, ...]:
-    """The recipe's text spans on one song (an open end is the song's end); a span past the song is an error."""
+def song_texts(texts: list[TextSpec], duration: float, where: str, first: float = 0.0) -> tuple[TextSpan, ...]:
+    """The recipe's text spans on one song, in the song's time (an open end is the song's end); a span past
+    the song's end, or ending before ``first`` (where the dance starts: ``compose.start``), is an error."""
     spans = []
     for i, t in enumerate(texts):
         start, end = t.start or 0.0, min(t.end or duration, duration)
@@ -62,8 +64,16 @@ def song_texts(texts: list[TextSpec], duration: float, where: str) -> tuple[Text
             raise DataError(
                 f"{where}: compose.texts.{i}: starts at {start:g} s, after the song's end ({duration:.1f} s)"
             )
+        if end <= first:
+            raise DataError(f"{where}: compose.texts.{i}: ends at {end:g} s, before the dance starts "
+                            f"(--start {first:g} s; text spans are in the song's time)")
         spans.append(TextSpan(t.text, start, end))
     return tuple(spans)
+
+
+def shifted(spans: tuple[TextSpan, ...], by: float) -> tuple[TextSpan, ...]:
+    """The spans ``by`` seconds earlier, cut at 0 (song time to a later origin's time)."""
+    return tuple(TextSpan(s.text, max(s.start - by, 0.0), None if s.end is None else s.end - by) for s in spans)
 
 
 def beat_tracker_of(recipe: Recipe, registry: Registry) -> str | None:
@@ -85,33 +95,50 @@ SEEK_MARGIN_S = 5.0
 
 def load_song(
     path: str, stack: FeatureStack, ckpt: Checkpoint, seconds: float | None, registry: Registry,
-    texts: list[TextSpec] = (), tracker: str | None = None,
+    texts: list[TextSpec] = (), tracker: str | None = None, start: float = 0.0,
 ) -> Song:
     """Features of one song (and its text spans' table), standardized with the checkpoint's statistics;
-    with ``tracker``, its beats by that tracker too (:func:`beat_tracker_of`)."""
+    with ``tracker``, its beats by that tracker too (:func:`beat_tracker_of`). With ``start`` (seconds,
+    ``compose.start``) the song is danced from there on: its features are those of the whole song's
+    frames from ``start`` (the music up to ``SEEK_MARGIN_S`` before it decoded too, for the windows that
+    look back), beats and the texts' table from the dance's first frame; ``texts`` are in the song's time."""
+    fps = stack.fps
+    first = int(round(start * fps))  # the dance's first frame, in the song's frames
     # decode no more than asked (and a margin the features' windows look past the end with)
-    audio = load_audio(path, registry, stack.formats, seconds + SEEK_MARGIN_S if seconds else None)
-    n_audio = audio.n_frames(stack.fps)
-    spans = song_texts(list(texts), n_audio / stack.fps, path)
-    raw, table = stack.extract_spans(n_audio, audio, spans)
-    n = frame_count(seconds, stack.fps) if seconds else n_audio
+    audio = load_audio(path, registry, stack.formats, start + seconds + SEEK_MARGIN_S if seconds else None)
+    if first and first >= audio.n_frames(fps):
+        raise DataError(f"{path}: --start (compose.start) {start:g} s is at or after the song's end "
+                        f"({audio.duration:.1f} s)")
+    spans = song_texts(list(texts), audio.n_frames(fps) / fps, path, first / fps)
+    lead = min(first, int(round(SEEK_MARGIN_S * fps)))  # frames of music before the dance its features see
+    cut = first - lead
+    if cut:  # the song from ``lead`` frames before the dance (a whole number of frames, as the features' grid)
+        audio = replace(audio, samples=audio.samples[int(round(cut * audio.rate / fps)):])
+    n_audio = audio.n_frames(fps)
+    raw, table = stack.extract_spans(n_audio, audio, shifted(spans, cut / fps))
+    n = frame_count(seconds, fps) if seconds else n_audio - lead
     streams = {}
     for name, values in raw.items():
         if name not in ckpt.stats.streams:
             raise DataError(f"{path}: feature stream {name!r} has no statistics in {ckpt.path}")
-        values = ckpt.stats.streams[name].apply(values)
+        values = ckpt.stats.streams[name].apply(values)[lead:]
         if n > len(values):
             values = np.concatenate([values, np.repeat(values[-1:], n - len(values), axis=0)])
         streams[name] = values[:n]
     table = table.map_features(ckpt.stats.apply_rows)
-    table = table.extend(n) if n > n_audio else table.crop(0, n)
+    table = table.extend(lead + n) if lead + n > n_audio else table.crop(0, lead + n)
+    if lead:  # the dance's frames, its spans in the dance's time
+        table = table.crop(lead, lead + n)
+        table = replace(table, spans=shifted(table.spans, lead / fps))
     beats = None
     if tracker is not None:
         from dance_core.data.beat_tracking import TRACK_FPS, tracked_beats
 
         frames, _ = tracked_beats(audio, registry, tracker)
-        beats = frames / TRACK_FPS
-    return Song(Path(path).stem, streams, n, str(path), spans, table, beats)
+        beats = frames / TRACK_FPS - lead / fps
+        beats = beats[beats >= 0] if lead else beats
+    texts_here = shifted(spans, first / fps) if first else spans
+    return Song(Path(path).stem, streams, n, str(path), texts_here, table, beats, first / fps)
 
 
 def load_model(
