@@ -210,6 +210,8 @@ class ComposeSpec(Strict):
         None, description="a motion file (as given, else relative to the recipe), or 'rest'"
     )
     seconds: PositiveFloat | None = Field(None, description="length; default the whole song")
+    start: float = Field(0.0, ge=0.0, allow_inf_nan=False, description="seconds into the song the dance starts "
+                         "at (text spans stay in the song's time; markers are from the dance's first frame)")
     temperature: float = Field(1.0, ge=0.0)
     samples: PositiveInt = 1
     batch_songs: PositiveInt = Field(
