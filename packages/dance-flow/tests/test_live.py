@@ -179,8 +179,17 @@ def test_osc_and_websocket_sinks_at_once(composer):
 
 @pytest.fixture(scope="module")
 def dance_20s(composer):
-    """The bundled model's frames for the first 20 s of hungarian_dance_5.ogg (compose's generation)."""
-    return composer.generate(composer.song(AUDIO / "hungarian_dance_5.ogg", 20.0))[0]
+    """The bundled model's frames for the first 20 s of hungarian_dance_5.ogg, generated as live does."""
+    from dance_core.live.generator import LiveGenerator
+
+    song = composer.song(AUDIO / "hungarian_dance_5.ogg", 20.0)
+    gen = LiveGenerator(composer.model, composer.recipe, composer.seed(), composer.device)
+    gen.add(song.streams)
+    gen.end()
+    frames = []
+    while gen.ready():
+        frames.append(gen.step())
+    return np.concatenate(frames)
 
 
 def test_live_poses_are_grounded_causally(composer, dance_20s):
