@@ -127,3 +127,32 @@ def test_the_bundled_dancer_puts_its_own_accents_on_the_beat(tmp_path):
     before = np.mean([score(d)["locking"] for d in plain])
     assert all("beat_align" in d.meta and d.meta["beat_align"]["max_rate"] <= 1.35 + 1e-6 for d in aligned)
     assert on > before + 0.15 and on > 3 * max(off, 0.05)
+
+
+def test_the_bundled_dancer_dances_from_the_first_frame(tmp_path):
+    """``compose.lead_in`` (on in the bundled recipe): the rest-pose seed and a pre-roll of the song's
+    opening are danced before the song starts and dropped, so the limbs move in the first second as
+    they do later; without it the dance rises from the seed over its first two seconds."""
+    from dance_core.compose.composer import Composer
+    from dance_core.formats.wav import write_wav
+    from dance_core.synth.music import synthesize
+
+    song = synthesize(12.0, 118.0, 22050, np.random.default_rng(9))
+    write_wav(tmp_path / "song.wav", song.audio, 22050)
+
+    def limb_speed(lead_in):
+        composer = Composer(load_recipe("default", ["compose.samples=2", f"compose.lead_in={lead_in}"]))
+        loaded = composer.song(tmp_path / "song.wav")
+        dances = composer.dances(loaded, composer.generate(loaded))
+        speeds = []
+        for d in dances:
+            p = d.skeleton_motion.positions()
+            assert len(p) == loaded.n_frames
+            v = np.linalg.norm(np.diff(p - p[:, :1], axis=0), axis=-1).mean(1) * 20.0
+            speeds.append((v[:20].mean(), v[60:].mean()))
+        return np.mean(speeds, axis=0)
+
+    first, later = limb_speed("true")
+    assert first > 0.5 * later
+    first_plain, later_plain = limb_speed("false")
+    assert first_plain < 0.25 * later_plain  # the seed's still pose and the rise from it

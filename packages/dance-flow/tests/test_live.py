@@ -23,7 +23,9 @@ def composer():
     from dance_core.api import Composer
     from dance_core.recipe import load_recipe
 
-    return Composer(load_recipe("default"))
+    # live starts from the seed as the music starts: compared with compose without its lead-in (a pre-roll
+    # of the song's opening, which live cannot have)
+    return Composer(load_recipe("default", ["compose.lead_in=false"]))
 
 
 def _pcm(seconds: float | None = None) -> bytes:

@@ -41,6 +41,26 @@ def _generate(model: ComposedModel, streams: dict, frames: int, seed: torch.Tens
     return motion.float().cpu().numpy()
 
 
+def lead_in(model: ComposedModel, recipe: Recipe, song: Song, forced=None) -> int:
+    """Frames danced before the song's start (``compose.lead_in``) and dropped, so that the dance is
+    under way at its first frame instead of rising from the seed: twice the model's start frames (the
+    seed, then as long again to get going) for a windowed model; 0 for a song-level one, with text spans
+    or edits (their frames are the song's), or when not asked. Without it a dance rises from its seed
+    over its first seconds (the bundled default: limbs at 0.02 m/s for 2 s, 0.4 once dancing)."""
+    if not recipe.compose.lead_in or model.window.song_level or song.texts or forced is not None:
+        return 0
+    return 2 * model.start_frames()
+
+
+def _lead(values: np.ndarray, lead: int) -> np.ndarray:
+    """A stream with ``lead`` frames of the song's own opening before it (a pre-roll: the opening played
+    once more, repeated when the song is shorter), so the lead-in is danced to this song's music."""
+    if not lead:
+        return values
+    reps = int(np.ceil(lead / max(len(values), 1)))
+    return np.concatenate([np.concatenate([values] * reps)[:lead], values])
+
+
 def generate_song(
     model: ComposedModel, song: Song, seed: torch.Tensor, recipe: Recipe, device: torch.device,
     progress=None, forced=None,
@@ -52,15 +72,19 @@ def generate_song(
     from the recipe's seed: a song's dance does not depend on the other songs in the call.
     """
     c = recipe.compose
+    lead = lead_in(model, recipe, song, forced)
     streams = {
-        name: torch.from_numpy(np.ascontiguousarray(np.repeat(values[None], c.samples, axis=0))).to(device)
+        name: torch.from_numpy(np.ascontiguousarray(np.repeat(_lead(values, lead)[None], c.samples, axis=0)))
+        .to(device)
         for name, values in song.streams.items()
     }
-    spans = None if song.spans is None else TextSpans.stack([song.spans] * c.samples, device)
+    # a lead-in only without texts, so the span table (no span in force anywhere) is lengthened by it
+    spans = None if song.spans is None else TextSpans.stack([song.spans.extend(lead + song.n_frames)] * c.samples,
+                                                            device)
     generation_threads(model, c.samples, device, c.threads)
     generator = torch.Generator(device=device).manual_seed(recipe.seed)
-    motion = _generate(model, streams, song.n_frames, seed, c.samples, recipe, device, generator, spans, progress,
-                       forced)
+    motion = _generate(model, streams, lead + song.n_frames, seed, c.samples, recipe, device, generator, spans,
+                       progress, forced)[:, lead:]
     if not np.all(np.isfinite(motion)):
         raise DanceError(f"{song.path or song.name}: the model produced NaN or inf motion; nothing was written")
     return motion
@@ -80,24 +104,27 @@ def generate_songs(
     bit-identical at another batch size), and are deterministic for a given batch of songs. Only for
     models :func:`batching_note` accepts."""
     c = recipe.compose
+    lead = min(lead_in(model, recipe, song) for song in songs)
     longest = max(song.n_frames for song in songs)
     names = list(songs[0].streams)
     streams = {}
     for name in names:
         rows = []
         for song in songs:
-            values = song.streams[name]
-            if len(values) < longest:
-                values = np.concatenate([values, np.repeat(values[-1:], longest - len(values), axis=0)])
+            values = _lead(song.streams[name], lead)
+            if len(values) < lead + longest:
+                values = np.concatenate([values, np.repeat(values[-1:], lead + longest - len(values), axis=0)])
             rows.append(np.repeat(values[None], c.samples, axis=0))
         streams[name] = torch.from_numpy(np.ascontiguousarray(np.concatenate(rows))).to(device)
     spans = None
     if all(song.spans is not None for song in songs):  # each song's spans run on over its padding, as its music
-        spans = TextSpans.stack([song.spans.extend(longest) for song in songs for _ in range(c.samples)], device)
+        spans = TextSpans.stack([song.spans.extend(lead + longest) for song in songs for _ in range(c.samples)],
+                                device)
     batch = len(songs) * c.samples
     generation_threads(model, batch, device, c.threads)
     generator = RowGenerators.same_seed(recipe.seed, len(songs), c.samples, device)
-    motion = _generate(model, streams, longest, seed, batch, recipe, device, generator, spans, progress)
+    motion = _generate(model, streams, lead + longest, seed, batch, recipe, device, generator, spans,
+                       progress)[:, lead:]
     out = []
     for k, song in enumerate(songs):
         part = motion[k * c.samples : (k + 1) * c.samples, : song.n_frames]

@@ -231,6 +231,10 @@ class ComposeSpec(Strict):
     ground: bool = Field(
         True, description="put skeletal dances on the floor and pin feet in contact (dance_core.motion.grounding)"
     )
+    lead_in: bool = Field(
+        False, description="dance a lead-in before the song starts (the seed, then a pre-roll of the song's "
+        "opening) and drop it, so the dance moves from its first frame (windowed models without text or edits)"
+    )
     beat_align: bool = Field(
         False, description="move the dance's own accents onto the song's beats by a smooth time warp "
         "(dance_core.motion.beat_align; beats from the recipe's beat tracker, else flux)"
