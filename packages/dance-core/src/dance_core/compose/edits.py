@@ -64,6 +64,7 @@ class Edits:
     max_turn: float | None = None
     loop: bool = False
     source: Motion | None = None  # the --from dance
+    source_path: str | None = None  # its file, whose frame lines a BVH output keeps outside the spans
     spans: list[tuple[float, float]] = field(default_factory=list)
     where: dict[str, str] = field(default_factory=dict)
 
@@ -190,8 +191,8 @@ def plan_edits(recipe: Recipe, ckpt: Checkpoint, registry: Registry, labels: dic
         edits.keyframes.append(keyframe_of(motion, seconds, frame, label))
     check_keyframes(edits.keyframes, float("inf"))  # two too close: before any song is read
     if c.from_motion:
-        edits.source = _read_on(beside_recipe(c.from_motion, recipe), registry, ckpt, recipe.format_options,
-                                labels["from_motion"])
+        edits.source_path = str(beside_recipe(c.from_motion, recipe))
+        edits.source = _read_on(edits.source_path, registry, ckpt, recipe.format_options, labels["from_motion"])
         edits.spans = spans
     return edits
 

@@ -178,6 +178,11 @@ def _spliced(data: MotionData, take, edits: Edits, info: MotionInfo, registry: R
     spans = [(int(round(a * fps)), int(round(b * fps))) for a, b in edits.spans]
     motion = splice(edits.source, take, spans)
     data.meta["regenerated"] = ", ".join(f"{a:g}-{b:g} s" for a, b in edits.spans)
+    if edits.source_path is not None:  # the kept frames' lines of a BVH source, written as they were
+        kept = np.ones(motion.n_frames, bool)
+        for a, b in spans:
+            kept[a:b] = False
+        data.meta["bvh_kept"] = (edits.source_path, kept)
     rep = info.build_representation(registry)
     return replace(data, values=rep.encode(motion).astype(data.values.dtype), skeleton_motion=motion)
 

@@ -395,6 +395,26 @@ def motion_to_bvh_text(motion: Motion, scale: float = 1.0, precision: int = 6) -
     return "\n".join(out) + "\n" + buf.getvalue()
 
 
+def kept_lines(text: str, source: Path, kept: np.ndarray) -> str:
+    """``text`` (BVH) with the frame lines marked ``kept`` taken from the BVH file ``source``, when its
+    hierarchy and frame count are ``text``'s (else ``text`` as it is)."""
+    try:
+        original = source.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError):
+        return text
+    ours, theirs = text.split("\n"), original.split("\n")
+    if "MOTION" not in ours or "MOTION" not in theirs:
+        return text
+    head, their_head = ours.index("MOTION"), theirs.index("MOTION")
+    first = head + 3  # MOTION, Frames:, Frame Time:, then one line per frame
+    n = len(kept)
+    if (ours[:first] != theirs[:their_head + 3] or len(ours) < first + n or len(theirs) < their_head + 3 + n):
+        return text
+    for k in np.flatnonzero(kept):
+        ours[first + k] = theirs[their_head + 3 + k]
+    return "\n".join(ours)
+
+
 #: the rotation taking a Z-up world to our Y-up one (-90 degrees about X)
 Z_TO_Y_UP = np.array([-np.sqrt(0.5), 0.0, 0.0, np.sqrt(0.5)])
 
@@ -449,18 +469,32 @@ class BvhFormat:
     def write_motion(self, motion: Motion, path: str | Path) -> None:
         """Write a skeletal motion atomically (a Y-up motion turned Z up for a Z-up file; one already Z up,
         :func:`dance_core.delivery.z_up`, as it is)."""
-        if self.up == "z" and motion.rotations is not None and motion.skeleton.up != "z":
-            motion = reoriented(motion, quat_conj(Z_TO_Y_UP), "z")
-        text = motion_to_bvh_text(motion, 1.0 / self.scale, self.precision)
+        text = self._text(motion)
         with atomic_path(path) as tmp:
             tmp.write_text(text, encoding="utf-8")
 
+    def _text(self, motion: Motion) -> str:
+        """The BVH text this format writes for a motion."""
+        if self.up == "z" and motion.rotations is not None and motion.skeleton.up != "z":
+            motion = reoriented(motion, quat_conj(Z_TO_Y_UP), "z")
+        return motion_to_bvh_text(motion, 1.0 / self.scale, self.precision)
+
     def write(self, motion: MotionData, path: str | Path) -> None:
-        """Write the skeletal motion behind ``motion`` (formats of plain feature arrays cannot)."""
+        """Write the skeletal motion behind ``motion`` (formats of plain feature arrays cannot). With
+        ``meta["bvh_kept"] = (source, kept)`` (``compose --from --regenerate``), frames ``kept`` are written
+        as the lines of the BVH file ``source`` when it has this file's hierarchy and frame count: the same
+        rotations, but the Euler angles a continuous curve chose there (an equivalent triple, 360° or a
+        flip apart) could otherwise differ after a regenerated span."""
         if motion.skeleton_motion is None:
             raise DataError(f"{path}: BVH needs a skeletal motion; this motion has only feature values "
                             "(set a `motion:` representation in the recipe)")
-        self.write_motion(motion.skeleton_motion, path)
+        kept = motion.meta.get("bvh_kept")
+        if kept is None:
+            self.write_motion(motion.skeleton_motion, path)
+            return
+        text = kept_lines(self._text(motion.skeleton_motion), Path(kept[0]), np.asarray(kept[1], bool))
+        with atomic_path(path) as tmp:
+            tmp.write_text(text, encoding="utf-8")
 
 
 def build(config: Any = None, **_: Any) -> BvhFormat:
