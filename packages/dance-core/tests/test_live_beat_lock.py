@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from dance_core.evaluation.realism import on_beat
-from dance_core.live.beat_lock import MAX_RATE, BeatClock, BeatLock
+from dance_core.live.beat_lock import MAX_LAG, MAX_RATE, BeatClock, BeatLock
 from dance_core.motion.body import body_beats
 from dance_core.motion.motion import Motion
 from dance_core.motion.rotations import expmap_to_quat
@@ -74,4 +74,4 @@ def test_a_dance_pausing_off_the_beat_is_played_onto_it():
     assert before < 0 and after > 0.7, (before, after)  # locked within 5 s
     rates = np.diff(np.maximum(sources, 0))[40:]
     assert rates.min() >= 1 / MAX_RATE - 1e-9 and rates.max() <= MAX_RATE + 1e-9 and rates.std() > 0.05
-    assert max(lock.lags) <= 1.2 + 1e-9 and lock.accents.count > 40
+    assert max(lock.lags) <= MAX_LAG + 1e-9 and lock.accents.count > 40

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dance_core.live.session import frame_message
 from dance_core.live.pose import Pose
+from dance_core.live.session import frame_message
 from dance_core.live.websocket import WebSocketSink
 from dance_core.motion.motion import Motion
 from dance_core.motion.rotations import expmap_to_quat

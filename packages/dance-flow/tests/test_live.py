@@ -115,7 +115,7 @@ def test_pcm_piped_at_real_time_yields_frames_covering_the_song():
     assert summary["frames"] == len(frames) and summary["dropped_frames"] == 0
     assert summary["latency_ms"]["p50"] > 0 and summary["music_delay_s"] == pytest.approx(0.5564, abs=1e-3)
     # the default recipe grounds and beat-aligns: live, causally; the dance plays behind what was generated
-    assert summary["grounded"] is True and 0.3 <= summary["beat_lock"]["lag_s"]["max"] <= 1.2
+    assert summary["grounded"] is True and 0.3 <= summary["beat_lock"]["lag_s"]["max"] <= 1.6
 
 
 def test_an_audio_file_on_stdin_and_a_stream_that_stops_end_with_one_line_and_intact_output():

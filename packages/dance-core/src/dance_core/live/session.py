@@ -24,9 +24,9 @@ from typing import Any
 import numpy as np
 
 from dance_core.errors import DanceError
+from dance_core.live.beat_lock import BeatClock
 from dance_core.live.features import LiveFeatures
 from dance_core.live.generator import LiveGenerator
-from dance_core.live.beat_lock import BeatClock
 from dance_core.live.pose import LivePoses, Pose, PoseDecoder
 
 #: seconds generation may fall behind the music it could step on before it drops frames
