@@ -104,7 +104,7 @@ def locking(positions: np.ndarray, fps: float, names: list[str], beats: np.ndarr
 def floor_and_motion(motion, beats: np.ndarray) -> dict:
     """Floating, skating, speed and jerk of a dance (``quality_scores`` on its soles)."""
     from dance_core.evaluation import quality_scores
-    from dance_core.motion.grounding import soles
+    from dance_core.motion import soles
 
     p = motion.positions()
     q = quality_scores(p, motion.fps, beats, motion.skeleton.names, motion.skeleton.parents, soles(motion))
@@ -141,7 +141,7 @@ def main() -> None:
     from dance_audio.beats import track_beats
     from dance_core import get_registry, load_audio
     from dance_core.api import Composer, load_recipe
-    from dance_core.motion.motion import Motion
+    from dance_core.motion import Motion
 
     torch.set_num_threads(1)
     composer = Composer(load_recipe("default"))

@@ -110,8 +110,8 @@ def finished(data: MotionData, song: Song, info: MotionInfo, registry: Registry,
     """A decoded skeletal dance as it is written: on the floor with its feet pinned in contact (``ground``,
     default ``compose.ground``), then its accents moved onto the song's beats when the song carries them
     (``compose.beat_align``, :mod:`dance_core.motion.beat_align`; a time warp keeps planted feet where
-    they are; a dance the warp moved is grounded again, so that it is written grounded and grounding it
-    once more, as a rig's delivery does, changes it by little); its frame array encoded again from the
+    they are; onto a rig a dance the warp moved is grounded again, so that grounding it once more, as the
+    rig's delivery does, changes it by little); its frame array encoded again from the
     changed motion. What each step did is in
     ``data.meta``. ``edits`` (:mod:`dance_core.compose.edits`): kept parts and facing before grounding,
     keyframes and the loop after the beat alignment; a ``--from`` dance has its spans replaced by this
@@ -137,8 +137,11 @@ def finished(data: MotionData, song: Song, info: MotionInfo, registry: Registry,
         motion, alignment = align_to_beats(motion, song.beats)
         data.meta["beat_align"] = alignment.summary()
         changed = changed or alignment.moved > 0
-        if grounded and alignment.moved > 0:  # the warp slides planted feet a little: pinned again, so the
-            motion, _ = put_on_floor(motion)  # dance is grounded as written (a rig's grounding keeps it)
+        # onto a rig, whose delivery grounds again, the warped dance is pinned again first, so that second
+        # grounding keeps it (grounding twice keeps a grounded dance); not otherwise: a second pass reads
+        # low hops (under the 8-cm release height) as contacts and flattens them
+        if grounded and alignment.moved > 0 and recipe.compose.rig:
+            motion, _ = put_on_floor(motion)
     if edits is not None:
         motion = edits.after_ground(motion)
     if not changed:
