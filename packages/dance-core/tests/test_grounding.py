@@ -251,7 +251,7 @@ def test_restless_feet_without_contacts_still_come_down_to_the_floor():
 
 def causal(motion):
     """The motion grounded frame by frame by ``CausalGrounding``."""
-    from dance_core.motion.grounding import CausalGrounding
+    from dance_core.motion.causal_grounding import CausalGrounding
 
     g = CausalGrounding(motion.skeleton, motion.fps)
     frames = [g(motion.root[i], motion.rotations[i]) for i in range(motion.n_frames)]

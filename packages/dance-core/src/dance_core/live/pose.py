@@ -6,7 +6,7 @@ world: turned by the heading integrated so far (the ``root.dyaw`` channel) and m
 position, so the figure walks and turns as the offline decoding of the same frames does.
 
 :class:`LivePoses` chains what follows the decoding, in offline's order: grounding from each pose and the
-ones before it (:class:`dance_core.motion.grounding.CausalGrounding`; ``compose.ground`` looks ahead and
+ones before it (:class:`dance_core.motion.causal_grounding.CausalGrounding`; ``compose.ground`` looks ahead and
 behind, which a live dance cannot), then beat locking (:mod:`dance_core.live.beat_lock`).
 """
 
@@ -19,7 +19,7 @@ import numpy as np
 from dance_core.checkpoint import Checkpoint
 from dance_core.errors import DataError
 from dance_core.live.beat_lock import BeatClock, BeatLock
-from dance_core.motion.grounding import CausalGrounding
+from dance_core.motion.causal_grounding import CausalGrounding
 from dance_core.motion.rotations import quat_mul, quat_rotate, yaw_quat
 from dance_core.motion.skeleton import Skeleton
 
@@ -88,7 +88,7 @@ class PoseDecoder:
 
 class LivePoses:
     """Model frames in, the poses sent out (metres): decoded, grounded causally with ``ground``
-    (:class:`~dance_core.motion.grounding.CausalGrounding`; position-only motion is not), then beat-locked
+    (:class:`~dance_core.motion.causal_grounding.CausalGrounding`; position-only motion is not), then beat-locked
     when ``clock`` is given (:class:`~dance_core.live.beat_lock.BeatLock`; the re-timing keeps planted feet
     planted). ``note`` says what could not be done."""
 
