@@ -1,3 +1,5 @@
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -113,3 +115,16 @@ def test_the_music_is_loud_on_its_beats_in_every_style(style):
     assert np.median(between) > 0.05  # the measure sees pads and tails between beats, not silence
     assert (beat_strength > 3 * np.median(between)).mean() >= 0.95  # beats are clear onsets, intro included
     assert [name for name, _, _ in song.section_bars][0] == "intro" and len(song.downbeats) == len(song.beats[::4])
+
+
+MOCAP = Path(__file__).resolve().parents[3] / ".." / "shared" / "mocap" / "cmu-dance"
+
+
+@pytest.mark.skipif(not MOCAP.is_dir(), reason="../shared/mocap not available")
+def test_written_dataset_from_real_moves_has_real_moves_in_every_clip(tmp_path):
+    # one process: every clip of `dance synth --out --songs N --mocap` is chained from the takes (the first
+    # clip alone was, the others fell back to the procedural dancer with its move labels)
+    names = write_dataset(tmp_path, songs=2, seed=1, seconds=6.0, fps=30.0, rate=8000, dances_per_song=2,
+                          mocap=str(MOCAP), mocap_exclude=("salsa_*", "modern_05_0[4-9].bvh", "modern_05_1?.bvh"))
+    assert len(names) == 4
+    assert all((tmp_path / f"{n}.texts").read_text() == "" for n in names)

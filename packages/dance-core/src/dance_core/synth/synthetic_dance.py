@@ -218,6 +218,7 @@ def _link_or_copy(src: Path, dst: Path) -> None:
 
 def _write_one(args: tuple) -> str:
     out, index, kwargs = args
+    kwargs = dict(kwargs)  # shared by every clip of a one-process run: popping from it lost --mocap after clip 0
     mocap = kwargs.pop("mocap", None)
     graph = takes_graph(mocap[0], kwargs["fps"], (), mocap[1]) if mocap else None
     clip = make_clip(index, **kwargs, graph=graph)
