@@ -321,3 +321,39 @@ def test_a_pin_the_leg_cannot_reach_keeps_the_foot_on_the_floor():
     h = sole_heights(out, out.positions(end_sites=True), find_feet(out.skeleton), SOLE)
     assert h.max() < LIFT + 1e-3
     assert horizontal_speed(out, 7).max() < horizontal_speed(m, 7).max()  # still pinned as far as it goes
+
+
+def knee_flexion(motion):
+    """Per frame, the mean flexion of both knees in degrees (0: straight)."""
+    p = motion.positions()
+    out = []
+    for hip, knee, ankle in ((1, 4, 7), (2, 5, 8)):
+        a, b = p[:, hip] - p[:, knee], p[:, ankle] - p[:, knee]
+        cos = (a * b).sum(-1) / np.linalg.norm(a, axis=-1) / np.linalg.norm(b, axis=-1)
+        out.append(180 - np.degrees(np.arccos(np.clip(cos, -1, 1))))
+    return np.mean(out, 0)
+
+
+def test_pinned_legs_keep_their_knees_bend(monkeypatch):
+    """A dancer in a plie slides 20 cm sideways with its feet: pinned, the feet would stretch the legs (the
+    knees 2-3 degrees straighter); the pelvis comes down instead, so the knees keep their bend, the feet
+    stay on the floor and the body above the legs keeps its pose around the root."""
+    from dance_core.motion import grounding
+
+    m = dancer(seconds=3.0)
+    bend = np.zeros((m.n_frames, 24, 3))
+    bend[:, [1, 2], 0], bend[:, [4, 5], 0], bend[:, [7, 8], 0] = -0.4, 0.8, -0.4
+    m.rotations[:, [1, 2, 4, 5, 7, 8]] = expmap_to_quat(bend)[:, [1, 2, 4, 5, 7, 8]]
+    t = np.arange(m.n_frames) / FPS
+    m.root[:, 0] += 0.20 * np.clip(t - 1.0, 0, 1) ** 2 * (3 - 2 * np.clip(t - 1.0, 0, 1))
+    before = knee_flexion(m)
+    out, report = ground(m)
+    assert report.contacts == (1, 1) and report.skating_after < 0.01 * report.skating_before
+    assert knee_flexion(out).min() > before.min() - 0.5
+    assert np.abs(soles(out)).max() < 1e-3
+    np.testing.assert_array_equal(out.root[:, [0, 2]], m.root[:, [0, 2]])
+    np.testing.assert_allclose(out.positions()[:, UPPER] - out.root[:, None], m.positions()[:, UPPER] - m.root[:, None],
+                               atol=1e-9)
+    monkeypatch.setattr(grounding, "MAX_DROP", 0.0)  # the control: no drop, the pins straighten the knees
+    stretched, _ = ground(m)
+    assert knee_flexion(stretched).min() < before.min() - 2.0

@@ -22,7 +22,11 @@ What an animator fixes by hand in generated motion, done in three steps:
    are solved by two-bone IK (:mod:`dance_core.motion.ik`); around the span the ankle is shifted by
    the span's shift at its edge, fading out over ``blend`` seconds (or the gap to the next span), so
    the foot leaves and lands with its own motion. The ankle keeps its world orientation, so the toe
-   follows. The root's horizontal track and every joint outside the legs stay exactly as they were.
+   follows. Where a pinned leg would be stretched (a foot that slid along with the body, held back), the
+   pelvis comes down as far as keeps that leg's hip-to-ankle distance, and so its knee's bend (at most
+   ``MAX_DROP``, smoothed; :func:`knee_drop`): pinned feet alone straightened the knees of generated
+   dances by about 5° over their contacts. The root's horizontal track and every joint outside the legs
+   stay exactly as they were around the root.
 
 Grounding a grounded motion changes it by little: its pinned feet are their spans' medians and their
 edges' shifts are zero, its contacts are found again and its soles are on the floor (about 1 cm or 1 %
@@ -290,7 +294,62 @@ def pin_feet(motion: Motion, feet: tuple[int, int, int, int], contacts: np.ndarr
     shifts = pin_shifts(motion.skeleton, pos, feet, contacts, blend_frames, soles)
     weight = ((shifts != 0).any(-1) | contacts).astype(float)
     pinned = pos[:, list(feet[::2])] + shifts
+    if soles is not None:  # the pelvis comes down where a pinned leg would straighten: the knees keep their bend
+        drop = knee_drop(motion.skeleton, pos, feet, weight, pinned, soles, motion.fps)
+        if drop.any():  # pinned again from the lowered hips, which reach farther, the pinned feet where they were
+            root = motion.root.copy()
+            root[:, 1] -= drop
+            motion = replace(motion, root=root)
+            kept = weight * drop[:, None]  # how far each ankle is held up against the drop
+            pos[..., 1] -= drop[:, None]
+            ankles = list(feet[::2])
+            pos[:, ankles, 1] += kept
+            shifts = pin_shifts(motion.skeleton, pos, feet, contacts, blend_frames, soles - drop[:, None] + kept)
+            pinned = pos[:, ankles] + shifts
     return pin_legs(motion, feet, weight, pinned)
+
+
+#: the most (m) the pelvis comes down so that pinned legs keep the knees' bend (:func:`knee_drop`)
+MAX_DROP = 0.06
+
+
+def knee_drop(skeleton: Skeleton, positions: np.ndarray, feet: tuple[int, int, int, int], weight: np.ndarray,
+              pinned: np.ndarray, soles: np.ndarray, fps: float, options: GroundingOptions | None = None
+              ) -> np.ndarray:
+    """``(T,)`` how far to lower the root so that each leg moved towards ``pinned (T, 2, 3)`` by ``weight
+    (T, 2)`` keeps the hip-to-ankle distance, and so the knee bend, it had: a foot that slid along with the
+    body, pinned, would otherwise stretch its leg (nearly straight knees at the ends of every contact, 5°
+    straighter on average over a contact). At most ``MAX_DROP``; a foot not pinned, or fading in or out, is
+    not taken below the floor (``soles (T, 2)``: heights above it); smoothed as the height correction is
+    (Gaussian, ``options.smoothing``; the cap eroded first, so that the smoothed drop stays under it).
+    Positions and the result in skeleton units."""
+    options = options or GroundingOptions()
+    unit = metres_per_unit(skeleton, feet, options)
+    need, cap = np.zeros(len(positions)), np.full(len(positions), MAX_DROP / unit)
+    for f, ankle in enumerate(feet[::2]):
+        knee = skeleton.parents[ankle]
+        hip = skeleton.parents[knee] if knee > 0 else -1
+        w = weight[:, f]
+        cap = np.minimum(cap, np.where(w < 1, np.maximum(soles[:, f], 0.0) / np.maximum(1.0 - w, 1e-9), np.inf))
+        if hip <= 0:
+            continue
+        target = positions[:, ankle] + w[:, None] * (pinned[:, f] - positions[:, ankle])
+        hips = positions[:, hip]
+        had = np.linalg.norm(hips - positions[:, ankle], axis=-1)
+        across = np.linalg.norm((hips - target)[:, [0, 2]], axis=-1)
+        above = np.sqrt(np.maximum(had * had - across * across, 0.0))  # how high the hip may stay
+        # a pin farther across than the leg was long cannot keep the bend at any height: left to the IK
+        need = np.maximum(need, np.where((w > 0) & (across < had), hips[:, 1] - target[:, 1] - above, 0.0))
+    need = np.clip(need, 0.0, MAX_DROP / unit)
+    if not need.any():
+        return need
+    sigma = options.smoothing * fps
+    radius = int(3.0 * sigma + 0.5) if sigma > 0 else 0
+    down = minimum_filter1d(cap, 2 * radius + 1, mode="nearest")  # smoothed, still under the cap everywhere
+    if sigma > 0:
+        need = gaussian_filter1d(need, sigma, mode="nearest", truncate=3.0)
+        down = gaussian_filter1d(down, sigma, mode="nearest", truncate=3.0)
+    return np.clip(np.minimum(need, down), 0.0, None)
 
 
 def pin_legs(motion: Motion, feet: tuple[int, int, int, int], weight: np.ndarray, pinned: np.ndarray) -> Motion:
