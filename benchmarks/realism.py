@@ -38,6 +38,7 @@ FPS = 30.0
 HELD_OUT = ("salsa_60_09", "salsa_61_09", "salsa_60_10", "salsa_61_10", "modern_05_10", "modern_05_11",
             "modern_05_12")
 HOP = 0.5
+MOCAP = ROOT / ".." / "shared" / "mocap" / "cmu-dance"  # read in place, never committed
 
 
 def stats(motion) -> np.ndarray:
@@ -190,7 +191,7 @@ def locking_of(motion, beats) -> dict:
 def main(argv: list[str] | None = None) -> None:
     """Run the benchmark and print its tables."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--mocap", type=Path, default=ROOT / ".." / "shared" / "mocap" / "cmu-dance")
+    parser.add_argument("--mocap", type=Path, default=MOCAP)
     parser.add_argument("--songs", type=Path, default=ROOT / ".." / "shared" / "fixtures" / "audio")
     parser.add_argument("--models", nargs="*", default=["default", "tm2d-small"])
     parser.add_argument("--raw", nargs="*", default=["default"],
