@@ -19,13 +19,16 @@ first 2 s (the rest-pose seed) cut from every dance before scoring. Parts:
   own data, 30 fps and text stream, so its row says so).
 
 Every run is cached as JSON under ``--cache``: a re-run skips what finished. ``--quick`` is the smoke
-path (one seed, few steps, short songs; its own cache). ``--readme`` writes the section between the
-``claims`` markers of benchmarks/README.md. TM2D's fusion-weight experiment is benchmarks/text_spans.py.
+path (one seed, few steps, short songs; its own cache). ``--steps N [--seeds K]`` is a plateau study: the
+same protocol with a budget of ``N`` steps, so the plateau rule rather than the budget ends each run (its
+own cache; each result's ``best_step`` and ``stopped`` say which ended it). ``--readme`` writes the section
+between the ``claims`` markers of benchmarks/README.md (the full run only). TM2D's fusion-weight experiment is benchmarks/text_spans.py.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import platform
 import time
@@ -148,14 +151,23 @@ def main() -> None:
     parser.add_argument("--cached-only", action="store_true",
                         help="report the cached runs, train nothing new (the TM2D row, which trains nothing, is "
                              "still composed)")
+    parser.add_argument("--steps", type=int, default=None,
+                        help="a plateau study: this step budget (validation every 25 steps, the same patience) in its "
+                             "own cache, runs/claims-cache-steps<N>; never written into the README")
+    parser.add_argument("--seeds", type=int, default=None, help="with --steps: seeds per arm (default 5)")
     parser.add_argument("--readme", action="store_true", help="write the result into benchmarks/README.md")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    tag = "-quick" if args.quick else "-reduced" if args.reduced else ""
+    tag = "-quick" if args.quick else "-reduced" if args.reduced else f"-steps{args.steps}" if args.steps else ""
     cache = Path(args.cache or ROOT / "runs" / f"claims-cache{tag}")
     protocol = (Protocol.quick(cache) if args.quick else Protocol.reduced(cache) if args.reduced
                 else Protocol(cache=cache))
-    reduced = " (reduced run: --reduced)" if args.reduced else " (smoke run: --quick)" if args.quick else ""
+    if args.steps or args.seeds:
+        protocol = dataclasses.replace(protocol, steps=args.steps or protocol.steps, dr_steps=args.steps or
+                                       protocol.dr_steps, seeds=args.seeds or protocol.seeds)
+    study = args.steps or args.seeds
+    reduced = (" (reduced run: --reduced)" if args.reduced else " (smoke run: --quick)" if args.quick else
+               f" (plateau study: --steps {protocol.steps}, {protocol.seeds} seeds)" if study else "")
     started = time.perf_counter()
     want = set(args.only or ["transflower", "curriculum", "table"])
     claims_protocol.CACHED_ONLY = args.cached_only
@@ -171,6 +183,7 @@ def main() -> None:
         f"Command: `OMP_NUM_THREADS=1 nice -n 5 .venv/bin/python benchmarks/claims.py{' --quick' * args.quick}"
         f"{' --reduced' * args.reduced}"
         f"{' --cached-only' * args.cached_only}{' --only ' + ' '.join(args.only) if args.only else ''}"
+        f"{f' --steps {args.steps}' if args.steps else ''}{f' --seeds {args.seeds}' if args.seeds else ''}"
         f"{' --readme' * args.readme}`; {len(files)} cached results written over {span:.0f} "
         f"min of wall time, this invocation "
         f"{total / 60:.1f} min, on {platform.machine()}, "
@@ -197,7 +210,7 @@ def main() -> None:
                  "against the slerp baseline at the span edges).")
     text = "\n".join(lines)
     print(text)
-    if args.readme and not (args.quick or args.reduced):  # only the full run writes the README's figures
+    if args.readme and not (args.quick or args.reduced or study):  # only the full run writes the README's figures
         write_section("claims", text)
 
 
