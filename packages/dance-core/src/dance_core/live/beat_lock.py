@@ -143,7 +143,7 @@ class BeatLock:
 
     def pose(self, frame: int) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
         """The output pose for music frame ``frame`` (at most the newest generated frame)."""
-        steps = frame - self.output if self.output >= 0 else 1
+        steps = frame - self.output  # a first call after frames held elsewhere catches up
         for _ in range(max(1, steps)):
             self._advance()
         self.output = frame

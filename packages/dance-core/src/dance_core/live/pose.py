@@ -6,12 +6,14 @@ world: turned by the heading integrated so far (the ``root.dyaw`` channel) and m
 position, so the figure walks and turns as the offline decoding of the same frames does.
 
 :class:`LivePoses` chains what follows the decoding, in offline's order: grounding from each pose and the
-ones before it (:class:`dance_core.motion.causal_grounding.CausalGrounding`; ``compose.ground`` looks ahead and
-behind, which a live dance cannot), then beat locking (:mod:`dance_core.live.beat_lock`).
+ones after it the beat lock's lag lets it see (:class:`dance_core.motion.buffered_grounding.BufferedGrounding`,
+``compose.ground``'s steps on a rolling buffer), or without the lock causally
+(:class:`dance_core.motion.causal_grounding.CausalGrounding`), then beat locking (:mod:`dance_core.live.beat_lock`).
 """
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,6 +21,7 @@ import numpy as np
 from dance_core.checkpoint import Checkpoint
 from dance_core.errors import DataError
 from dance_core.live.beat_lock import BeatClock, BeatLock
+from dance_core.motion.buffered_grounding import LOOKAHEAD, BufferedGrounding
 from dance_core.motion.causal_grounding import CausalGrounding
 from dance_core.motion.rotations import quat_mul, quat_rotate, yaw_quat
 from dance_core.motion.skeleton import Skeleton
@@ -87,27 +90,53 @@ class PoseDecoder:
 
 
 class LivePoses:
-    """Model frames in, the poses sent out (metres): decoded, grounded causally with ``ground``
-    (:class:`~dance_core.motion.causal_grounding.CausalGrounding`; position-only motion is not), then beat-locked
-    when ``clock`` is given (:class:`~dance_core.live.beat_lock.BeatLock`; the re-timing keeps planted feet
-    planted). ``note`` says what could not be done."""
+    """Model frames in, the poses sent out (metres): decoded, grounded with ``ground`` (position-only motion is
+    not), then beat-locked when ``clock`` is given (:class:`~dance_core.live.beat_lock.BeatLock`; the re-timing
+    keeps planted feet planted). The beat lock plays the dance about a second behind generation, so its poses
+    are grounded with ``lookahead`` seconds of the frames after them
+    (:class:`~dance_core.motion.buffered_grounding.BufferedGrounding`, the whole dance's steps on a rolling
+    buffer) at no cost in latency: the lock never plays a frame before its grounding is done; without the lock
+    each pose is grounded from itself and the ones before it
+    (:class:`~dance_core.motion.causal_grounding.CausalGrounding`). ``note`` says what could not be done."""
 
-    def __init__(self, decoder: PoseDecoder, ground: bool = True, clock: BeatClock | None = None):
+    def __init__(self, decoder: PoseDecoder, ground: bool = True, clock: BeatClock | None = None,
+                 lookahead: float = LOOKAHEAD):
         self.decoder, self.scale, self.note = decoder, decoder.scale, ""
-        self.grounding = CausalGrounding(decoder.skeleton, decoder.fps) if ground else None
         self.lock = None
         if clock is not None:
             try:
                 self.lock = BeatLock(decoder.skeleton, decoder.fps, clock)
             except DataError as exc:
                 self.note = f"not beat-locked: {exc}"
+        self.grounding: CausalGrounding | BufferedGrounding | None = None
+        if ground:
+            skeleton, fps = decoder.skeleton, decoder.fps
+            self.grounding = (BufferedGrounding(skeleton, fps, lookahead) if self.lock is not None and lookahead > 0
+                              else CausalGrounding(skeleton, fps))
+        delay = self.grounding.delay if isinstance(self.grounding, BufferedGrounding) else 0
+        self.indices: deque[int] = deque(maxlen=delay + 1)  # the frames in the grounding's buffer not given out
+
+    @property
+    def lookahead(self) -> float:
+        """Seconds of later frames each pose's grounding sees (0: causal, or not grounded)."""
+        if isinstance(self.grounding, BufferedGrounding):
+            return self.grounding.delay / self.decoder.fps
+        return 0.0
 
     def __call__(self, index: int, frame: np.ndarray) -> Pose:
         """The pose for music frame ``index`` from the model's frame of that index."""
         root, rotations, positions = self.decoder.decode(frame)
-        if self.grounding is not None and rotations is not None:
+        made = index  # the generated frame the pose (root, rotations, positions) is of
+        if isinstance(self.grounding, BufferedGrounding) and rotations is not None:
+            self.indices.append(index)  # the frame given back is the one pushed `delay` calls ago (drops skip indices)
+            grounded = self.grounding.push(root, rotations)
+            if grounded is None:  # the lock holds the first pose meanwhile
+                root, rotations, positions = self.grounding.peek()
+                return Pose(root * self.scale, rotations, positions * self.scale)
+            made, (root, rotations, positions) = self.indices[0], grounded
+        elif self.grounding is not None and rotations is not None:
             root, rotations, positions = self.grounding(root, rotations)
         if self.lock is not None:  # as offline: the accents of the feet as they will be seen
-            self.lock.push(index, root, rotations, positions)
+            self.lock.push(made, root, rotations, positions)
             root, rotations, positions = self.lock.pose(index)
         return Pose(root * self.scale, rotations, positions * self.scale)

@@ -153,7 +153,8 @@ class LiveSession:
             "lookahead_s": {"features": round(self.features.lookahead, 4), "model": round(w.cond_future / self.fps, 4)},
             "music_delay_s": round(self.features.lookahead + w.cond_future / self.fps, 4),
             "threads": self.threads, "outputs": {s.name: s.stats() for s in self.sinks},
-            "grounded": self.poses.grounding is not None, "beat_lock": self._lock_summary(),
+            "grounded": self.poses.grounding is not None, "grounding_lookahead_s": round(self.poses.lookahead, 4),
+            "beat_lock": self._lock_summary(),
         })
 
     def _lock_summary(self) -> dict[str, Any] | None:

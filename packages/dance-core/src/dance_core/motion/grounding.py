@@ -266,13 +266,28 @@ def settled_contacts(motion: Motion, heights: np.ndarray, feet: tuple[int, int, 
     return contacts, correction
 
 
+def span_pins(positions: np.ndarray, feet: tuple[int, int, int, int], contacts: np.ndarray,
+              fixed: np.ndarray | None = None) -> np.ndarray:
+    """``(T, 2, 2)`` where each foot is pinned (ankle x, z): in each contact span its median ankle position, or
+    the pin ``fixed (T, 2, 2)`` gives on the span's frames (NaN elsewhere; a span pinned already keeps its pin);
+    NaN outside contacts."""
+    pins = np.full((len(positions), 2, 2), np.nan)
+    for f, ankle in enumerate(feet[::2]):
+        for start, stop in _runs(contacts[:, f]):
+            given = fixed[start:stop, f] if fixed is not None else np.full((1, 2), np.nan)
+            given = given[~np.isnan(given).any(-1)]
+            pins[start:stop, f] = given[0] if len(given) else np.median(positions[start:stop, ankle][:, [0, 2]], axis=0)
+    return pins
+
+
 def pin_shifts(skeleton: Skeleton, positions: np.ndarray, feet: tuple[int, int, int, int], contacts: np.ndarray,
-               blend: int, soles: np.ndarray | None = None) -> np.ndarray:
-    """``(T, 2, 3)`` shift of each ankle by pinning (:func:`pin_feet`): in a contact span onto the span's
-    median ankle position, as far as the leg reaches (:func:`within_reach`, raised by at most ``LIFT`` less
-    its sole's height in ``soles (T, 2)`` when given); within ``blend`` frames of a span (at most the gap to
-    the next one), the shift at the span's edge fading out (smoothstep; two spans' fades add up in a short
-    gap). Zero for a leg that hangs off the root."""
+               blend: int, soles: np.ndarray | None = None, pins: np.ndarray | None = None) -> np.ndarray:
+    """``(T, 2, 3)`` shift of each ankle by pinning (:func:`pin_feet`): in a contact span onto its pin
+    (``pins (T, 2, 2)``, by default :func:`span_pins`: the span's median ankle position), as far as the leg
+    reaches (:func:`within_reach`, raised by at most ``LIFT`` less its sole's height in ``soles (T, 2)`` when
+    given); within ``blend`` frames of a span (at most the gap to the next one), the shift at the span's edge
+    fading out (smoothstep; two spans' fades add up in a short gap). Zero for a leg that hangs off the root."""
+    pins = span_pins(positions, feet, contacts) if pins is None else pins
     shifts = np.zeros((len(positions), 2, 3))
     lift = LIFT / metres_per_unit(skeleton, feet, GroundingOptions())
     room = np.full((len(positions), 2), lift) if soles is None else np.clip(lift - soles, 0.0, lift)
@@ -282,7 +297,8 @@ def pin_shifts(skeleton: Skeleton, positions: np.ndarray, feet: tuple[int, int, 
         if hip <= 0:
             continue
         reach = np.linalg.norm(skeleton.offsets[knee]) + np.linalg.norm(skeleton.offsets[ankle])
-        shifts[:, f] = _pin_shifts(positions[:, ankle], positions[:, hip], contacts[:, f], blend, reach, room[:, f])
+        shifts[:, f] = _pin_shifts(positions[:, ankle], positions[:, hip], contacts[:, f], blend, reach, room[:, f],
+                                   pins[:, f])
     return shifts
 
 
@@ -465,14 +481,15 @@ def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
 
 
 def _pin_shifts(ankle: np.ndarray, hip: np.ndarray, contact: np.ndarray, blend: int, reach: float,
-                lift: np.ndarray) -> np.ndarray:
-    """One foot's ``(T, 3)`` ankle shifts (see :func:`pin_shifts`; ``ankle``, ``hip``: ``(T, 3)`` positions)."""
+                lift: np.ndarray, pin: np.ndarray) -> np.ndarray:
+    """One foot's ``(T, 3)`` ankle shifts (see :func:`pin_shifts`; ``ankle``, ``hip``: ``(T, 3)`` positions;
+    ``pin``: ``(T, 2)`` its pins, x and z)."""
     n = len(contact)
     shift = np.zeros((n, 3))
     runs = _runs(contact)
     for start, stop in runs:
         target = ankle[start:stop].copy()
-        target[:, [0, 2]] = np.median(ankle[start:stop, [0, 2]], axis=0)
+        target[:, [0, 2]] = pin[start:stop]
         shift[start:stop] = within_reach(hip[start:stop], ankle[start:stop], target, reach, lift[start:stop]) \
             - ankle[start:stop]
     edges = [0] + [e for run in runs for e in run] + [n]  # span k runs edges[2k + 1]..edges[2k + 2]
