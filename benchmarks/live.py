@@ -18,7 +18,11 @@ at ``--speed`` times real time (1 = as a player would), and the JSON Lines frame
 ``--minutes M`` instead plays one long song, the fixture songs one after another until ``M`` minutes, and
 reports the latency per minute (does it grow?); no offline dance.
 
-    python benchmarks/live.py [--songs A.ogg B.ogg] [--speed 1] [--minutes 10] [--json]
+``--load N`` runs N busy processes (a Python loop each, at normal priority) on the same cores while ``dance
+live`` plays: a deliberate competing load, under which frames are dropped and counted, never the audio.
+Every row reports the machine's load average (``os.getloadavg``) before and after the song plays.
+
+    python benchmarks/live.py [--songs A.ogg B.ogg] [--speed 1] [--minutes 10] [--load 2] [--json]
 """
 
 from __future__ import annotations
@@ -64,7 +68,32 @@ def long_song(minutes: float) -> np.ndarray:
     return np.concatenate(parts)[: int(minutes * 60 * RATE)]
 
 
-def live(data: bytes, speed: float) -> tuple[dict, list[dict]]:
+def busy(n: int) -> list[subprocess.Popen]:
+    """``n`` processes that keep a core busy until they are ended (the competing load of ``--load``)."""
+    return [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(n)]
+
+
+def load_average() -> list[float]:
+    """The machine's 1-, 5- and 15-minute load averages."""
+    return [round(x, 2) for x in os.getloadavg()]
+
+
+def live(data: bytes, speed: float, load: int = 0) -> tuple[dict, list[dict]]:
+    """The summary and frames of ``dance live`` fed PCM ``data`` at ``speed`` times real time, with ``load``
+    busy processes beside it; the summary gains the load averages before and after (``load_avg``)."""
+    before = load_average()
+    hogs = busy(load)
+    try:
+        summary, frames = _live(data, speed)
+    finally:
+        for hog in hogs:
+            hog.kill()
+            hog.wait()
+    summary["load_avg"] = {"before": before, "after": load_average(), "busy_processes": load}
+    return summary, frames
+
+
+def _live(data: bytes, speed: float) -> tuple[dict, list[dict]]:
     """The summary and frames of ``dance live`` fed PCM ``data`` at ``speed`` times real time."""
     env = dict(os.environ, OMP_NUM_THREADS="1")
     proc = subprocess.Popen([sys.executable, "-m", "dance_core.cli.main", "live", "default", "--input", "-", "--rate",
@@ -122,18 +151,20 @@ def main() -> None:
     parser.add_argument("--songs", nargs="+", type=Path, default=[AUDIO / "vibe_ace.ogg", AUDIO / "lets_go_fishin.ogg"])
     parser.add_argument("--speed", type=float, default=1.0)
     parser.add_argument("--minutes", type=float, help="play one song this long (the fixtures in a row): latency only")
+    parser.add_argument("--load", type=int, default=0, help="busy processes competing for the cores meanwhile")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
 
     if args.minutes:
-        summary, frames = live(pcm(long_song(args.minutes)), args.speed)
+        summary, frames = live(pcm(long_song(args.minutes)), args.speed, args.load)
         row = {"song": f"fixtures in a row, {args.minutes:g} min", "seconds": summary["music_seconds"],
                "frames": summary["frames"], "dropped": summary["dropped_frames"], "latency_ms": summary["latency_ms"],
-               "latency_ms_by_minute": summary["latency_ms_by_minute"], "beat_lock": summary.get("beat_lock")}
+               "latency_ms_by_minute": summary["latency_ms_by_minute"], "beat_lock": summary.get("beat_lock"),
+               "load_avg": summary["load_avg"]}
         lat = row["latency_ms"]
         print(json.dumps(row, indent=2) if args.json else
               f"{row['song']}: {row['frames']} frames, {row['dropped']} dropped, latency p50 {lat['p50']:.1f} p95 "
-              f"{lat['p95']:.1f} max {lat['max']:.1f} ms; {minutes_table(summary)}")
+              f"{lat['p95']:.1f} max {lat['max']:.1f} ms; {minutes_table(summary)}; load {row['load_avg']}")
         return
 
     import torch
@@ -149,7 +180,7 @@ def main() -> None:
     names = skeleton.names
     rows = []
     for song in args.songs:
-        summary, frames = live(pcm(samples(song)), args.speed)
+        summary, frames = live(pcm(samples(song)), args.speed, args.load)
         fps = summary["fps"]
         live_motion = Motion(skeleton, fps, np.array([f["root"] for f in frames]),
                              np.array([f["rotations"] for f in frames]))
@@ -164,6 +195,7 @@ def main() -> None:
                "frames": summary["frames"], "dropped": summary["dropped_frames"], "latency_ms": lat,
                "latency_ms_by_minute": summary["latency_ms_by_minute"],
                "music_delay_s": summary["music_delay_s"], "beat_lock": summary.get("beat_lock"),
+               "grounding_lookahead_s": summary.get("grounding_lookahead_s"), "load_avg": summary["load_avg"],
                "live": locking(live_pos, fps, names, beats), "offline": locking(off_pos, fps, names, beats),
                "live_after_5s": locking(live_pos, fps, names, beats, 5.0),
                "offline_after_5s": locking(off_pos, fps, names, beats, 5.0),
@@ -179,7 +211,8 @@ def main() -> None:
                   f"(control {row['offline']['control']:.2f}); after 5 s live {row['live_after_5s']['locking']:.2f} "
                   f"offline {row['offline_after_5s']['locking']:.2f}; float live {fl['float']:.3f} offline "
                   f"{fo['float']:.3f}, skating {fl['skating']:.3f} / {fo['skating']:.3f} m/s, speed "
-                  f"{fl['speed']:.2f} / {fo['speed']:.2f} m/s, jerk {fl['jerk']:.0f} / {fo['jerk']:.0f} m/s^3",
+                  f"{fl['speed']:.2f} / {fo['speed']:.2f} m/s, jerk {fl['jerk']:.0f} / {fo['jerk']:.0f} m/s^3; "
+                  f"lag {row['beat_lock'] and row['beat_lock'].get('lag_s')}; load {row['load_avg']}",
                   flush=True)
     if args.json:
         print(json.dumps(rows, indent=2))
