@@ -53,6 +53,7 @@ class BufferedGrounding:
         size = self.history + self.delay + 1
         self.roots: deque[np.ndarray] = deque(maxlen=size)
         self.rotations: deque[np.ndarray] = deque(maxlen=size)
+        self.points: deque[np.ndarray] = deque(maxlen=size)  # each frame's joints and End Sites, found once
         self.contacts: deque[np.ndarray] = deque(maxlen=self.history)  # of the frames given out
         self.pins: deque[np.ndarray] = deque(maxlen=self.history)
         self.given = 0  # frames given out
@@ -61,6 +62,8 @@ class BufferedGrounding:
         """Take the next frame; the frame ``delay`` before it grounded, or None while the buffer fills."""
         self.roots.append(np.asarray(root, np.float64))
         self.rotations.append(np.asarray(rotations, np.float64))
+        frame = Motion(self.skeleton, self.fps, self.roots[-1][None], self.rotations[-1][None])
+        self.points.append(frame.positions(end_sites=self.feet is not None)[0])
         index = len(self.roots) - 1 - self.delay  # the frame given out, in the buffer
         if index < 0:
             return None
@@ -73,11 +76,12 @@ class BufferedGrounding:
 
     def _ground(self, index: int, keep: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Buffer frame ``index`` grounded; ``keep``: remember its contacts and pins (it is given out)."""
-        motion = Motion(self.skeleton, self.fps, np.stack(self.roots), np.stack(self.rotations))
         if self.feet is None:
-            return motion.root[index], motion.rotations[index], motion.positions()[index]
-        o, unit, feet = self.options, self.unit, self.feet
-        points = motion.positions(end_sites=True)
+            return self.roots[index], self.rotations[index], self.points[index]
+        o, unit, feet, joints = self.options, self.unit, self.feet, len(self.skeleton)
+        points = np.stack(self.points)
+        # the buffer as joint positions (found once per frame): what the grounding steps read of it
+        motion = Motion(self.skeleton, self.fps, np.stack(self.roots), joint_positions=points[:, :joints])
         heights = sole_heights(motion, points, feet, o.sole / unit)
         contacts, _ = settled_contacts(motion, heights, feet, o, unit)
         fixed = np.full((len(heights), 2, 2), np.nan)
@@ -85,18 +89,19 @@ class BufferedGrounding:
             contacts[:index] = np.stack(self.contacts)[-index:]
             fixed[:index] = np.stack(self.pins)[-index:]
         correction = vertical_correction(heights, contacts, self.fps, o)
-        pos = points[:, : len(self.skeleton)].copy()
+        pos = points[:, :joints].copy()
         pos[..., 1] += correction[:, None]
         pins = span_pins(pos, feet, contacts, fixed)
         shifts = pin_shifts(self.skeleton, pos, feet, contacts, self.blend, heights + correction[:, None], pins)
         if keep:
             self.contacts.append(contacts[index])
             self.pins.append(pins[index])
-        root = motion.root[index].copy()
+        root = self.roots[index].copy()
         root[1] += correction[index]
-        frame = Motion(self.skeleton, self.fps, root[None], motion.rotations[index][None])
+        frame = Motion(self.skeleton, self.fps, root[None], self.rotations[index][None])
         weight = ((shifts[index] != 0).any(-1) | contacts[index]).astype(float)
-        if weight.any():
-            pinned = pos[index, list(feet[::2])] + shifts[index]
-            frame = pin_legs(frame, feet, weight[None], pinned[None])
+        if not weight.any():
+            return root, frame.rotations[0], pos[index]
+        pinned = pos[index, list(feet[::2])] + shifts[index]
+        frame = pin_legs(frame, feet, weight[None], pinned[None])
         return frame.root[0], frame.rotations[0], frame.positions()[0]
