@@ -56,3 +56,17 @@ def test_velocity_and_acceleration_losses_add_the_differences_l1():
     acc = (recon.diff(n=2, dim=1) - motion.diff(n=2, dim=1)).abs().mean()
     assert torch.isclose(extra["velocity"], vel) and torch.isclose(extra["acceleration"], acc)
     assert torch.isclose(extra["loss"], base["loss"] + 0.5 * vel + 2.0 * acc)
+
+
+def test_root_channels_weigh_root_weight_in_the_reconstruction():
+    torch.manual_seed(0)
+    motion = torch.randn(2, 32, 6)
+    plain = vqvae()
+    weighted = vqvae(root_channels=2, root_weight=5.0)
+    weighted.load_state_dict(plain.state_dict())
+    base, out = plain.loss(motion), weighted.loss(motion)
+    recon, q = plain(motion)
+    err = (recon - motion).abs()  # L1 (the config's default)
+    expected = (err[..., :2].sum() * 5.0 + err[..., 2:].sum()) / err.numel()
+    assert torch.isclose(out["loss"] - base["loss"], expected - err.mean(), atol=1e-6)
+    assert torch.isclose(out["recon"], base["recon"])  # the logged L1 error stays unweighted

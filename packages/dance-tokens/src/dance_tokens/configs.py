@@ -38,6 +38,11 @@ class TokenizerConfig(ComponentConfig):
         "l1", description="reconstruction loss: L1 as in the paper, or smooth L1 (Huber, beta 1; ours)"
     )
     crop: PositiveInt = Field(64, description="frames of each training crop")
+    root_channels: int = Field(0, ge=0, description="how many leading motion channels are the root's (4 with "
+                               "`rotations` and `root: deltas`: dx, dz, y, dyaw); they weigh `root_weight` in the "
+                               "reconstruction loss (ours; 0: every channel weighs 1, as in the paper)")
+    root_weight: float = Field(1.0, gt=0.0, description="weight of the `root_channels` in the reconstruction loss: "
+                               "a turn lives in one channel (dyaw) of 76 and is lost at weight 1")
     velocity: float = Field(0.0, ge=0.0, description="weight of an L1 loss on the reconstruction's frame-to-frame "
                             "differences (ours, as Bailando's and T2M-GPT's VQ-VAEs; 0: off, as in the paper)")
     acceleration: float = Field(0.0, ge=0.0, description="weight of an L1 loss on its second differences "

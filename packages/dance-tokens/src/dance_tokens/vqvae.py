@@ -55,6 +55,9 @@ class MotionVQVAE(nn.Module):
         c = config
         self.downsample, self.recon = c.downsample, c.recon
         self.velocity, self.acceleration = c.velocity, c.acceleration
+        weights = torch.ones(motion_dim)
+        weights[: c.root_channels] = c.root_weight
+        self.register_buffer("channel_weights", weights, persistent=False)
         w = c.width
         layers = int(math.log2(c.downsample))
         enc: list[nn.Module] = [nn.Conv1d(motion_dim, w, 3, padding=1)]
@@ -92,12 +95,14 @@ class MotionVQVAE(nn.Module):
         return self.decode_codes(q.codes), q
 
     def loss(self, motion: torch.Tensor, generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:
-        """Reconstruction (L1, or smooth L1) + codebook + β · commitment, plus the optional L1 losses on the
-        first and second frame differences (``velocity``, ``acceleration`` weights), with the L1 error,
-        codebook usage and perplexity."""
+        """Reconstruction (L1, or smooth L1; the first ``root_channels`` weighed ``root_weight``) + codebook +
+        β · commitment, plus the optional L1 losses on the first and second frame differences (``velocity``,
+        ``acceleration`` weights), with the L1 error, codebook usage and perplexity."""
         recon, q = self(motion, generator)
         l1 = F.l1_loss(recon, motion)
-        fit = l1 if self.recon == "l1" else F.smooth_l1_loss(recon, motion)
+        per = F.l1_loss(recon, motion, reduction="none") if self.recon == "l1" else \
+            F.smooth_l1_loss(recon, motion, reduction="none")
+        fit = (per * self.channel_weights).mean()
         out = {}
         for order, weight, name in ((1, self.velocity, "velocity"), (2, self.acceleration, "acceleration")):
             if weight > 0:
