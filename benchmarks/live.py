@@ -18,11 +18,17 @@ at ``--speed`` times real time (1 = as a player would), and the JSON Lines frame
 ``--minutes M`` instead plays one long song, the fixture songs one after another until ``M`` minutes, and
 reports the latency per minute (does it grow?); no offline dance.
 
+``--simulate`` runs the same pipeline in-process without real time (audio blocks through the live features,
+the beat tracker's rows to the beat clock as they arrive, the generator, ``LivePoses``): no latency and no
+drops, so the dance's quality is measured free of the machine's load; ``--lookahead S`` sets the grounding's
+look-ahead there (0: causal grounding), to compare.
+
 ``--load N`` runs N busy processes (a Python loop each, at normal priority) on the same cores while ``dance
 live`` plays: a deliberate competing load, under which frames are dropped and counted, never the audio.
 Every row reports the machine's load average (``os.getloadavg``) before and after the song plays.
 
     python benchmarks/live.py [--songs A.ogg B.ogg] [--speed 1] [--minutes 10] [--load 2] [--json]
+    python benchmarks/live.py --simulate [--lookahead 0.25] [--songs ...]
 """
 
 from __future__ import annotations
@@ -121,6 +127,45 @@ def _live(data: bytes, speed: float) -> tuple[dict, list[dict]]:
     return json.loads(err[err.index("{") :]), lines[1:]
 
 
+def simulate(composer, song: Path, lookahead: float) -> tuple[dict, list[dict]]:
+    """A summary and frames as ``live`` gives them, from ``dance live``'s pipeline run in-process without real
+    time: the song's samples in blocks of 1024 through the live features, the beat tracker's rows to the beat
+    clock as they arrive, the model stepped as its music is known, every frame posed (no drops)."""
+    from dance_core.live.beat_lock import BeatClock
+    from dance_core.live.features import LiveFeatures
+    from dance_core.live.generator import LiveGenerator
+    from dance_core.live.pose import LivePoses, PoseDecoder
+    from dance_core.live.session import frame_message
+
+    fps, y = composer.recipe.fps, samples(song)
+    trackers = frozenset(e.name for e in composer.registry.entries("feature") if e.info.get("beats"))
+    features = LiveFeatures(composer.stack, composer.checkpoint, RATE, trackers)
+    generator = LiveGenerator(composer.model, composer.recipe, composer.seed(), composer.device)
+    clock = BeatClock(fps)
+    poses = LivePoses(PoseDecoder(composer.checkpoint, composer.registry, fps), composer.recipe.compose.ground,
+                      clock, lookahead)
+    frames, beat_rows = [], 0
+    blocks = [y[lo : lo + 1024] for lo in range(0, len(y), 1024)]
+    for block in [*blocks, None]:
+        streams = features.push(block) if block is not None else features.finish()
+        for row in features.take_beats():
+            clock.update(beat_rows, float(row[2]), float(row[3]))
+            beat_rows += 1
+        generator.add(streams)
+        if block is None:
+            generator.end()
+        while generator.ready() > 0:
+            first = generator.t
+            for offset, frame in enumerate(generator.step()):
+                frames.append(frame_message(first + offset, fps, poses(first + offset, frame)))
+    lag = np.asarray(poses.lock.lags) if poses.lock is not None else np.zeros(1)
+    summary = {"fps": fps, "music_seconds": len(y) / RATE, "frames": len(frames), "dropped_frames": 0,
+               "latency_ms": {}, "latency_ms_by_minute": [], "music_delay_s": None,
+               "grounding_lookahead_s": poses.lookahead, "load_avg": None, "simulated": True,
+               "beat_lock": {"lag_s": {"mean": round(float(lag.mean()), 3), "max": round(float(lag.max()), 3)}}}
+    return summary, frames
+
+
 def locking(positions: np.ndarray, fps: float, names: list[str], beats: np.ndarray, start: float = 0.0) -> dict:
     """Body locking of a dance from ``start`` seconds on."""
     from dance_core.evaluation import body_locking
@@ -152,6 +197,8 @@ def main() -> None:
     parser.add_argument("--speed", type=float, default=1.0)
     parser.add_argument("--minutes", type=float, help="play one song this long (the fixtures in a row): latency only")
     parser.add_argument("--load", type=int, default=0, help="busy processes competing for the cores meanwhile")
+    parser.add_argument("--simulate", action="store_true", help="the pipeline in-process without real time")
+    parser.add_argument("--lookahead", type=float, default=0.25, help="with --simulate: the grounding's look-ahead")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
 
@@ -180,7 +227,8 @@ def main() -> None:
     names = skeleton.names
     rows = []
     for song in args.songs:
-        summary, frames = live(pcm(samples(song)), args.speed, args.load)
+        summary, frames = (simulate(composer, song, args.lookahead) if args.simulate
+                           else live(pcm(samples(song)), args.speed, args.load))
         fps = summary["fps"]
         live_motion = Motion(skeleton, fps, np.array([f["root"] for f in frames]),
                              np.array([f["rotations"] for f in frames]))
@@ -205,8 +253,9 @@ def main() -> None:
         rows.append(row)
         if not args.json:
             fl, fo = row["live_floor_motion"], row["offline_floor_motion"]
-            print(f"{song.name}: {row['frames']} frames, {row['dropped']} dropped, latency p50 {lat['p50']:.1f} "
-                  f"p95 {lat['p95']:.1f} max {lat['max']:.1f} ms; locking live {row['live']['locking']:.2f} "
+            timing = (f"{row['frames']} frames, {row['dropped']} dropped, latency p50 {lat['p50']:.1f} p95 "
+                      f"{lat['p95']:.1f} max {lat['max']:.1f} ms" if lat else f"{row['frames']} frames, simulated")
+            print(f"{song.name}: {timing}; locking live {row['live']['locking']:.2f} "
                   f"(control {row['live']['control']:.2f}) offline {row['offline']['locking']:.2f} "
                   f"(control {row['offline']['control']:.2f}); after 5 s live {row['live_after_5s']['locking']:.2f} "
                   f"offline {row['offline_after_5s']['locking']:.2f}; float live {fl['float']:.3f} offline "
