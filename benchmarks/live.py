@@ -18,17 +18,14 @@ at ``--speed`` times real time (1 = as a player would), and the JSON Lines frame
 ``--minutes M`` instead plays one long song, the fixture songs one after another until ``M`` minutes, and
 reports the latency per minute (does it grow?); no offline dance.
 
-``--simulate`` runs the same pipeline in-process without real time (audio blocks through the live features,
-the beat tracker's rows to the beat clock as they arrive, the generator, ``LivePoses``): no latency and no
-drops, so the dance's quality is measured free of the machine's load; ``--lookahead S`` sets the grounding's
-look-ahead there (0: causal grounding), to compare.
+``scripts/live_simulate.py`` runs the same pipeline in-process without real time and scores it with this
+file's functions (:func:`compare`): the dance's quality free of the machine's load.
 
 ``--load N`` runs N busy processes (a Python loop each, at normal priority) on the same cores while ``dance
 live`` plays: a deliberate competing load, under which frames are dropped and counted, never the audio.
 Every row reports the machine's load average (``os.getloadavg``) before and after the song plays.
 
     python benchmarks/live.py [--songs A.ogg B.ogg] [--speed 1] [--minutes 10] [--load 2] [--json]
-    python benchmarks/live.py --simulate [--lookahead 0.25] [--songs ...]
 """
 
 from __future__ import annotations
@@ -127,45 +124,6 @@ def _live(data: bytes, speed: float) -> tuple[dict, list[dict]]:
     return json.loads(err[err.index("{") :]), lines[1:]
 
 
-def simulate(composer, song: Path, lookahead: float) -> tuple[dict, list[dict]]:
-    """A summary and frames as ``live`` gives them, from ``dance live``'s pipeline run in-process without real
-    time: the song's samples in blocks of 1024 through the live features, the beat tracker's rows to the beat
-    clock as they arrive, the model stepped as its music is known, every frame posed (no drops)."""
-    from dance_core.live.beat_lock import BeatClock
-    from dance_core.live.features import LiveFeatures
-    from dance_core.live.generator import LiveGenerator
-    from dance_core.live.pose import LivePoses, PoseDecoder
-    from dance_core.live.session import frame_message
-
-    fps, y = composer.recipe.fps, samples(song)
-    trackers = frozenset(e.name for e in composer.registry.entries("feature") if e.info.get("beats"))
-    features = LiveFeatures(composer.stack, composer.checkpoint, RATE, trackers)
-    generator = LiveGenerator(composer.model, composer.recipe, composer.seed(), composer.device)
-    clock = BeatClock(fps)
-    poses = LivePoses(PoseDecoder(composer.checkpoint, composer.registry, fps), composer.recipe.compose.ground,
-                      clock, lookahead)
-    frames, beat_rows = [], 0
-    blocks = [y[lo : lo + 1024] for lo in range(0, len(y), 1024)]
-    for block in [*blocks, None]:
-        streams = features.push(block) if block is not None else features.finish()
-        for row in features.take_beats():
-            clock.update(beat_rows, float(row[2]), float(row[3]))
-            beat_rows += 1
-        generator.add(streams)
-        if block is None:
-            generator.end()
-        while generator.ready() > 0:
-            first = generator.t
-            for offset, frame in enumerate(generator.step()):
-                frames.append(frame_message(first + offset, fps, poses(first + offset, frame)))
-    lag = np.asarray(poses.lock.lags) if poses.lock is not None else np.zeros(1)
-    summary = {"fps": fps, "music_seconds": len(y) / RATE, "frames": len(frames), "dropped_frames": 0,
-               "latency_ms": {}, "latency_ms_by_minute": [], "music_delay_s": None,
-               "grounding_lookahead_s": poses.lookahead, "load_avg": None, "simulated": True,
-               "beat_lock": {"lag_s": {"mean": round(float(lag.mean()), 3), "max": round(float(lag.max()), 3)}}}
-    return summary, frames
-
-
 def locking(positions: np.ndarray, fps: float, names: list[str], beats: np.ndarray, start: float = 0.0) -> dict:
     """Body locking of a dance from ``start`` seconds on."""
     from dance_core.evaluation import body_locking
@@ -197,8 +155,6 @@ def main() -> None:
     parser.add_argument("--speed", type=float, default=1.0)
     parser.add_argument("--minutes", type=float, help="play one song this long (the fixtures in a row): latency only")
     parser.add_argument("--load", type=int, default=0, help="busy processes competing for the cores meanwhile")
-    parser.add_argument("--simulate", action="store_true", help="the pipeline in-process without real time")
-    parser.add_argument("--lookahead", type=float, default=0.25, help="with --simulate: the grounding's look-ahead")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
 
@@ -214,6 +170,14 @@ def main() -> None:
               f"{lat['p95']:.1f} max {lat['max']:.1f} ms; {minutes_table(summary)}; load {row['load_avg']}")
         return
 
+    compare(args.songs, lambda composer, song: live(pcm(samples(song)), args.speed, args.load), args.json,
+            {"speed": args.speed})
+
+
+def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None) -> list[dict]:
+    """For each song, the live dance (``play(composer, song)`` gives ``live``'s summary and frames) against the
+    offline one: locking, floor and motion, with the summary's latency, drops and load; printed as lines, or as
+    JSON at the end."""
     import torch
 
     from dance_audio.beats import track_beats
@@ -226,9 +190,8 @@ def main() -> None:
     skeleton = composer.checkpoint.motion.skeleton
     names = skeleton.names
     rows = []
-    for song in args.songs:
-        summary, frames = (simulate(composer, song, args.lookahead) if args.simulate
-                           else live(pcm(samples(song)), args.speed, args.load))
+    for song in songs:
+        summary, frames = play(composer, song)
         fps = summary["fps"]
         live_motion = Motion(skeleton, fps, np.array([f["root"] for f in frames]),
                              np.array([f["rotations"] for f in frames]))
@@ -239,7 +202,7 @@ def main() -> None:
         off_motion = offline.skeleton_motion
         off_pos = off_motion.positions()
         lat = summary["latency_ms"]
-        row = {"song": song.name, "seconds": summary["music_seconds"], "speed": args.speed,
+        row = {"song": song.name, "seconds": summary["music_seconds"], **(extra or {}),
                "frames": summary["frames"], "dropped": summary["dropped_frames"], "latency_ms": lat,
                "latency_ms_by_minute": summary["latency_ms_by_minute"],
                "music_delay_s": summary["music_delay_s"], "beat_lock": summary.get("beat_lock"),
@@ -251,7 +214,7 @@ def main() -> None:
                "offline_floor_motion": floor_and_motion(off_motion, beats),
                "offline_meta": {k: offline.meta.get(k) for k in ("grounding", "beat_align")}}
         rows.append(row)
-        if not args.json:
+        if not as_json:
             fl, fo = row["live_floor_motion"], row["offline_floor_motion"]
             timing = (f"{row['frames']} frames, {row['dropped']} dropped, latency p50 {lat['p50']:.1f} p95 "
                       f"{lat['p95']:.1f} max {lat['max']:.1f} ms" if lat else f"{row['frames']} frames, simulated")
@@ -263,8 +226,9 @@ def main() -> None:
                   f"{fl['speed']:.2f} / {fo['speed']:.2f} m/s, jerk {fl['jerk']:.0f} / {fo['jerk']:.0f} m/s^3; "
                   f"lag {row['beat_lock'] and row['beat_lock'].get('lag_s')}; load {row['load_avg']}",
                   flush=True)
-    if args.json:
+    if as_json:
         print(json.dumps(rows, indent=2))
+    return rows
 
 
 if __name__ == "__main__":

@@ -1,0 +1,74 @@
+"""``dance live``'s pipeline in-process without real time, scored as ``benchmarks/live.py`` scores the real-time
+run: the dance's quality (beat locking, floor and motion against the offline dance) free of the machine's load.
+
+Each song's samples go in blocks of 1024 through the live features; the beat tracker's rows reach the beat
+clock as their audio arrives (ahead of the frames generated, as in a session); the model steps as soon as its
+music is known and every frame is posed (``LivePoses``: grounding, beat lock). No latency, no drops.
+``--lookahead S`` sets the grounding's look-ahead (0: the causal grounding), to compare.
+
+    python scripts/live_simulate.py [--lookahead 0.25] [--songs A.ogg B.ogg] [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import live as bench  # noqa: E402  benchmarks/live.py: samples, compare
+
+
+def simulate(composer, song: Path, lookahead: float) -> tuple[dict, list[dict]]:
+    """A summary and frames as ``bench.live`` gives them, from the pipeline run without real time."""
+    from dance_core.live.beat_lock import BeatClock
+    from dance_core.live.features import LiveFeatures
+    from dance_core.live.generator import LiveGenerator
+    from dance_core.live.pose import LivePoses, PoseDecoder
+    from dance_core.live.session import frame_message
+
+    fps, y = composer.recipe.fps, bench.samples(song)
+    trackers = frozenset(e.name for e in composer.registry.entries("feature") if e.info.get("beats"))
+    features = LiveFeatures(composer.stack, composer.checkpoint, bench.RATE, trackers)
+    generator = LiveGenerator(composer.model, composer.recipe, composer.seed(), composer.device)
+    clock = BeatClock(fps)
+    poses = LivePoses(PoseDecoder(composer.checkpoint, composer.registry, fps), composer.recipe.compose.ground,
+                      clock, lookahead)
+    frames, beat_rows = [], 0
+    blocks = [y[lo : lo + 1024] for lo in range(0, len(y), 1024)]
+    for block in [*blocks, None]:
+        streams = features.push(block) if block is not None else features.finish()
+        for row in features.take_beats():
+            clock.update(beat_rows, float(row[2]), float(row[3]))
+            beat_rows += 1
+        generator.add(streams)
+        if block is None:
+            generator.end()
+        while generator.ready() > 0:
+            first = generator.t
+            for offset, frame in enumerate(generator.step()):
+                frames.append(frame_message(first + offset, fps, poses(first + offset, frame)))
+    lag = np.asarray(poses.lock.lags) if poses.lock is not None else np.zeros(1)
+    summary = {"fps": fps, "music_seconds": len(y) / bench.RATE, "frames": len(frames), "dropped_frames": 0,
+               "latency_ms": {}, "latency_ms_by_minute": [], "music_delay_s": None,
+               "grounding_lookahead_s": poses.lookahead, "load_avg": None,
+               "beat_lock": {"lag_s": {"mean": round(float(lag.mean()), 3), "max": round(float(lag.max()), 3)}}}
+    return summary, frames
+
+
+def main() -> None:
+    """Simulate each song and print how its live dance compares with the offline one."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--songs", nargs="+", type=Path,
+                        default=[bench.AUDIO / "vibe_ace.ogg", bench.AUDIO / "lets_go_fishin.ogg"])
+    parser.add_argument("--lookahead", type=float, default=0.25, help="the grounding's look-ahead (s; 0: causal)")
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args()
+    bench.compare(args.songs, lambda composer, song: simulate(composer, song, args.lookahead), args.json,
+                  {"simulated": True, "lookahead": args.lookahead})
+
+
+if __name__ == "__main__":
+    main()
