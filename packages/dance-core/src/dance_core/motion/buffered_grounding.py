@@ -34,7 +34,10 @@ class BufferedGrounding:
 
     The steps are the whole dance's (:func:`settled_contacts` with flicker removal, :func:`vertical_correction`
     smoothed both ways, :func:`pin_shifts` with their fades); what a frame already given out decided is kept:
-    its contacts, and its contact span's pin, so a planted foot does not move as the buffer slides. A span's
+    its contacts, and its contact span's pin, so a planted foot does not move as the buffer slides. A frame's
+    height correction is the mean of those found for it on each push while it was in the look-ahead: the
+    last one alone changes from frame to frame with what the buffer's end shows (the body's vertical jerk
+    2.6x offline grounding's on a generated dance); each keeps every foot above the floor, so their mean does. A span's
     pin is its median ankle position (offline's) when the span ends within the buffer as it begins, else the
     median of the part the buffer holds. ``push(root (3,), rotations (J, 4))`` returns the grounded frame
     ``delay`` frames back as ``(root, rotations, positions)``, or None while the buffer fills (``peek()``
@@ -57,9 +60,13 @@ class BufferedGrounding:
         self.contacts: deque[np.ndarray] = deque(maxlen=self.history)  # of the frames given out
         self.pins: deque[np.ndarray] = deque(maxlen=self.history)
         self.given = 0  # frames given out
+        self.pushed = 0  # frames taken
+        # the height corrections found on the last pushes, each with the frame it starts at
+        self.guesses: deque[tuple[int, np.ndarray]] = deque(maxlen=self.delay + 1)
 
     def push(self, root: np.ndarray, rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """Take the next frame; the frame ``delay`` before it grounded, or None while the buffer fills."""
+        self.pushed += 1
         self.roots.append(np.asarray(root, np.float64))
         self.rotations.append(np.asarray(rotations, np.float64))
         frame = Motion(self.skeleton, self.fps, self.roots[-1][None], self.rotations[-1][None])
@@ -89,15 +96,21 @@ class BufferedGrounding:
             contacts[:index] = np.stack(self.contacts)[-index:]
             fixed[:index] = np.stack(self.pins)[-index:]
         correction = vertical_correction(heights, contacts, self.fps, o)
+        first = self.pushed - len(correction)  # the buffer's first frame
+        height = float(correction[index])
+        if keep:  # the mean of the corrections found for this frame while it was in the look-ahead
+            self.guesses.append((first, correction))
+            height = float(np.mean([c[first + index - f] for f, c in self.guesses]))
         pos = points[:, :joints].copy()
         pos[..., 1] += correction[:, None]
+        pos[index, :, 1] += height - correction[index]
         pins = span_pins(pos, feet, contacts, fixed)
         shifts = pin_shifts(self.skeleton, pos, feet, contacts, self.blend, heights + correction[:, None], pins)
         if keep:
             self.contacts.append(contacts[index])
             self.pins.append(pins[index])
         root = self.roots[index].copy()
-        root[1] += correction[index]
+        root[1] += height
         frame = Motion(self.skeleton, self.fps, root[None], self.rotations[index][None])
         weight = ((shifts[index] != 0).any(-1) | contacts[index]).astype(float)
         if not weight.any():
