@@ -61,7 +61,8 @@ def register_schedules(register):
 
 @hookimpl
 def register_recipes(register):
-    """DanceRevolution at the paper's sizes, a CPU-sized variant, and a cross-breed with dance-flow."""
+    """DanceRevolution at the paper's sizes, two CPU-sized variants (the second with bundled weights
+    trained on real moves), and a cross-breed with dance-flow."""
     register(
         "dancerevolution",
         None,
@@ -73,6 +74,12 @@ def register_recipes(register):
         None,
         str(RECIPES / "dancerevolution-small.yaml"),
         "DanceRevolution shrunk for CPU; learns the synthetic beats in about a minute",
+    )
+    register(
+        "dancerevolution-real",
+        None,
+        str(RECIPES / "dancerevolution-real.yaml"),
+        "DanceRevolution shrunk for CPU with bundled weights trained on real moves (CMU dance takes)",
     )
     register(
         "cross-breed-small",
