@@ -61,8 +61,8 @@ def register_schedules(register):
 
 @hookimpl
 def register_recipes(register):
-    """DanceRevolution at the paper's sizes, two CPU-sized variants (the second with bundled weights
-    trained on real moves), and a cross-breed with dance-flow."""
+    """DanceRevolution at the paper's sizes, two CPU-sized variants (the second for real moves,
+    trained by the user: no weights ship), and a cross-breed with dance-flow."""
     register(
         "dancerevolution",
         None,
@@ -79,7 +79,7 @@ def register_recipes(register):
         "dancerevolution-real",
         None,
         str(RECIPES / "dancerevolution-real.yaml"),
-        "DanceRevolution shrunk for CPU with bundled weights trained on real moves (CMU dance takes)",
+        "DanceRevolution shrunk for CPU for real moves (train it with data.dataset.mocap; no weights ship)",
     )
     register(
         "cross-breed-small",
