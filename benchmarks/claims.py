@@ -22,7 +22,8 @@ Every run is cached as JSON under ``--cache``: a re-run skips what finished. ``-
 path (one seed, few steps, short songs; its own cache). ``--steps N [--seeds K]`` is a plateau study: the
 same protocol with a budget of ``N`` steps, so the plateau rule rather than the budget ends each run (its
 own cache; each result's ``best_step`` and ``stopped`` say which ended it). ``--readme`` writes the section
-between the ``claims`` markers of benchmarks/README.md (the full run only). TM2D's fusion-weight experiment is benchmarks/text_spans.py.
+between the ``claims`` markers of benchmarks/README.md (the full run only). TM2D's fusion-weight experiment
+is benchmarks/text_spans.py.
 """
 
 from __future__ import annotations
@@ -130,10 +131,11 @@ def claims_table(table: dict, tf: dict | None, cur: dict | None, protocol: Proto
     if cur and cur.get("teacher forcing"):
         lines.append(row("DanceRevolution, pure teacher forcing", cur["teacher forcing"]))
     if table.get("tm2d"):
-        tm2d_name = "TM2D (tm2d-small, bundled weights with the prior retrained on 30 Nov 2026, music only)"
+        tm2d_name = "TM2D (tm2d-small, the bundled weights, music only)"
         lines.append(row(tm2d_name, table["tm2d"],
-                         note="not the common protocol: its own training set (classic dancer + synthetic-moves), "
-                              "30 fps resampled to 20, its features; one training run, 5 samples"))
+                         note="not the common protocol: its own training set (dances chained from real CMU moves and "
+                              "the text-labelled synthetic moves; its model card), 30 fps resampled to 20, its "
+                              "features; one training run, 5 samples"))
     return lines
 
 
