@@ -43,13 +43,18 @@ def test_receptive_field_is_exact():
             assert first == 0 or model.token_reach(first - 1)[1] < s
 
 
-def test_velocity_and_acceleration_losses_add_the_differences_l1():
+def with_loss_options(**kw):
+    """A motion, a VQ-VAE with the default losses and the same weights with the loss options ``kw``, and both
+    losses on the motion."""
     torch.manual_seed(0)
     motion = torch.randn(2, 32, 6)
-    plain = vqvae()
-    smooth = vqvae(velocity=0.5, acceleration=2.0)
-    smooth.load_state_dict(plain.state_dict())
-    base, extra = plain.loss(motion), smooth.loss(motion)
+    plain, other = vqvae(), vqvae(**kw)
+    other.load_state_dict(plain.state_dict())
+    return motion, plain, plain.loss(motion), other.loss(motion)
+
+
+def test_velocity_and_acceleration_losses_add_the_differences_l1():
+    motion, plain, base, extra = with_loss_options(velocity=0.5, acceleration=2.0)
     assert "velocity" not in base
     recon, _ = plain(motion)
     vel = (recon.diff(dim=1) - motion.diff(dim=1)).abs().mean()
@@ -59,13 +64,8 @@ def test_velocity_and_acceleration_losses_add_the_differences_l1():
 
 
 def test_root_channels_weigh_root_weight_in_the_reconstruction():
-    torch.manual_seed(0)
-    motion = torch.randn(2, 32, 6)
-    plain = vqvae()
-    weighted = vqvae(root_channels=2, root_weight=5.0)
-    weighted.load_state_dict(plain.state_dict())
-    base, out = plain.loss(motion), weighted.loss(motion)
-    recon, q = plain(motion)
+    motion, plain, base, out = with_loss_options(root_channels=2, root_weight=5.0)
+    recon, _ = plain(motion)
     err = (recon - motion).abs()  # L1 (the config's default)
     expected = (err[..., :2].sum() * 5.0 + err[..., 2:].sum()) / err.numel()
     assert torch.isclose(out["loss"] - base["loss"], expected - err.mean(), atol=1e-6)
