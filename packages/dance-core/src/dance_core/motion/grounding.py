@@ -305,24 +305,41 @@ def pin_shifts(skeleton: Skeleton, positions: np.ndarray, feet: tuple[int, int, 
 def pin_feet(motion: Motion, feet: tuple[int, int, int, int], contacts: np.ndarray, blend_frames: int,
              soles: np.ndarray | None = None) -> Motion:
     """The motion with each contact span's ankle pinned horizontally by leg IK (legs only change; the
-    ankles shifted by :func:`pin_shifts`, given the ``soles (T, 2)`` heights when known)."""
-    pos = motion.positions()
-    shifts = pin_shifts(motion.skeleton, pos, feet, contacts, blend_frames, soles)
-    weight = ((shifts != 0).any(-1) | contacts).astype(float)
-    pinned = pos[:, list(feet[::2])] + shifts
-    if soles is not None:  # the pelvis comes down where a pinned leg would straighten: the knees keep their bend
-        drop = knee_drop(motion.skeleton, pos, feet, weight, pinned, soles, motion.fps)
-        if drop.any():  # pinned again from the lowered hips, which reach farther, the pinned feet where they were
-            root = motion.root.copy()
-            root[:, 1] -= drop
-            motion = replace(motion, root=root)
-            kept = weight * drop[:, None]  # how far each ankle is held up against the drop
-            pos[..., 1] -= drop[:, None]
-            ankles = list(feet[::2])
-            pos[:, ankles, 1] += kept
-            shifts = pin_shifts(motion.skeleton, pos, feet, contacts, blend_frames, soles - drop[:, None] + kept)
-            pinned = pos[:, ankles] + shifts
+    ankles shifted by :func:`pin_shifts`, given the ``soles (T, 2)`` heights when known) and, with the soles
+    known, the root lowered where a pinned leg would be stretched (:func:`pinning`)."""
+    drop, weight, pinned = pinning(motion.skeleton, motion.positions(), feet, contacts, blend_frames, motion.fps,
+                                   soles)
+    if drop.any():
+        root = motion.root.copy()
+        root[:, 1] -= drop
+        motion = replace(motion, root=root)
     return pin_legs(motion, feet, weight, pinned)
+
+
+def pinning(skeleton: Skeleton, positions: np.ndarray, feet: tuple[int, int, int, int], contacts: np.ndarray,
+            blend_frames: int, fps: float, soles: np.ndarray | None = None, pins: np.ndarray | None = None
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(drop (T,), weight (T, 2), pinned (T, 2, 3))``: how far the root comes down (:func:`knee_drop`,
+    zero without ``soles``), and for :func:`pin_legs` each ankle's weight and target, from the joint
+    ``positions`` before the drop (the pins ``pins (T, 2, 2)`` when given, else :func:`span_pins`). With a
+    drop the feet are pinned again from the lowered hips, which reach farther, the pinned feet held where
+    they were."""
+    ankles = list(feet[::2])
+    shifts = pin_shifts(skeleton, positions, feet, contacts, blend_frames, soles, pins)
+    weight = ((shifts != 0).any(-1) | contacts).astype(float)
+    pinned = positions[:, ankles] + shifts
+    drop = np.zeros(len(positions))
+    if soles is None:  # the pelvis comes down where a pinned leg would straighten: the knees keep their bend
+        return drop, weight, pinned
+    drop = knee_drop(skeleton, positions, feet, weight, pinned, soles, fps)
+    if drop.any():
+        kept = weight * drop[:, None]  # how far each ankle is held up against the drop
+        pos = positions.copy()
+        pos[..., 1] -= drop[:, None]
+        pos[:, ankles, 1] += kept
+        shifts = pin_shifts(skeleton, pos, feet, contacts, blend_frames, soles - drop[:, None] + kept, pins)
+        pinned = pos[:, ankles] + shifts
+    return drop, weight, pinned
 
 
 #: the most (m) the pelvis comes down so that pinned legs keep the knees' bend (:func:`knee_drop`)
