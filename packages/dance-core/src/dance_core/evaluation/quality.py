@@ -43,6 +43,7 @@ import numpy as np
 from dance_core.evaluation.beats import fact_motion_beats, local_minima, mean_joint_speed
 from dance_core.evaluation.contact import foot_indices
 from dance_core.evaluation.kinetic import kinetic_features_array
+from dance_core.evaluation.repetition import self_repetition
 from dance_core.protocols import JointClip
 
 #: a foot higher than this (m) is off the floor; lower, it may be touching it
@@ -310,7 +311,9 @@ def quality_scores(
     Keys: the :func:`beat_locking` keys; ``float`` and ``below_floor`` (fractions), ``worst_stretch``
     (highest 10-s median lowest-foot height, m), ``skating`` (m/s), ``speed``, ``acceleration``,
     ``jerk``, ``drift`` (last/first 30 s speed), ``drift_60`` (last/first minute, NaN under 2
-    minutes), ``foot_trend`` (m/min), ``bone`` (NaN without ``parents``), ``seconds``.
+    minutes), ``repeat`` (m: how closely the end repeats itself, :func:`~dance_core.evaluation.repetition.
+    self_repetition`; a loop scores near 0), ``foot_trend`` (m/min), ``bone`` (NaN without ``parents``),
+    ``seconds``.
     """
     p = np.asarray(positions, dtype=np.float64)
     feet = feet_of(p, names)
@@ -325,6 +328,7 @@ def quality_scores(
     out.update(smoothness(p, fps))
     out["drift"] = speed_drift(p, fps, DRIFT_SECONDS)
     out["drift_60"] = speed_drift(p, fps, 60.0) if len(p) >= 120 * fps else float("nan")
+    out["repeat"] = self_repetition(p, fps, names)
     out["foot_trend"] = foot_height_trend(p, fps, feet, soles)
     out["bone"] = bone_length_constancy(p, parents) if parents is not None else float("nan")
     out["seconds"] = len(p) / fps
