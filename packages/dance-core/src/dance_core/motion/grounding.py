@@ -329,8 +329,9 @@ def pinning(skeleton: Skeleton, positions: np.ndarray, feet: tuple[int, int, int
     weight = ((shifts != 0).any(-1) | contacts).astype(float)
     pinned = positions[:, ankles] + shifts
     drop = np.zeros(len(positions))
-    if soles is None:  # the pelvis comes down where a pinned leg would straighten: the knees keep their bend
+    if soles is None:
         return drop, weight, pinned
+    # the pelvis comes down where a pinned leg would straighten: the knees keep their bend
     drop = knee_drop(skeleton, positions, feet, weight, pinned, soles, fps)
     if drop.any():
         kept = weight * drop[:, None]  # how far each ankle is held up against the drop
@@ -483,7 +484,7 @@ def ground(motion: Motion, options: GroundingOptions | None = None) -> tuple[Mot
     report = GroundingReport(
         contacts=tuple(len(_runs(contacts[:, f])) for f in range(2)),  # type: ignore[arg-type]
         contact_fraction=float(contacts.any(1).mean()),
-        mean_correction=float(correction.mean() * unit),
+        mean_correction=float((grounded.root[:, 1] - motion.root[:, 1]).mean() * unit),  # the knee drop too
         skating_before=float(speeds[contacts].mean() * unit) if contacts.any() else 0.0,
         skating_after=float(after[contacts].mean() * unit) if contacts.any() else 0.0,
         note="" if contacts.any() else "no foot contact found; only feet below the floor were raised",
