@@ -1,4 +1,4 @@
-"""Helpers shared by the composition tests: a click-track song writer and a sampling head plugin."""
+"""Helpers shared by the composition tests: the tiny model, a click-track song writer and a sampling head plugin."""
 
 from __future__ import annotations
 
@@ -12,6 +12,18 @@ from dance_core.components.configs import RegressionHeadConfig
 from dance_core.components.modules import RegressionHead
 from dance_core.data.synthetic_beats import click_track
 from dance_core.formats.wav import write_wav
+
+#: recipe overrides of the tiny core-dance model the composition tests train and compose with
+TINY = ["data.dataset.songs=3", "data.dataset.seconds=8", "training.steps=20", "training.batch_size=8",
+        "training.val_every=20", "training.checkpoint_every=20", "training.log_every=10"]
+
+
+def tiny_checkpoint(root: Path) -> str:
+    """Train the tiny core-dance model under ``root / "run"``; its checkpoint's path."""
+    from dance_core.recipe import load_recipe
+    from dance_core.train import train
+
+    return str(train(load_recipe("core-dance", TINY), out=str(root / "run"), quiet=True).checkpoint)
 
 
 def click_song(path: Path, seconds: float, bpm: float = 120.0, rate: int = 16000) -> str:

@@ -15,23 +15,18 @@ from dance_core.formats.glb import GlbFormat
 from dance_core.motion.markers import read_markers
 from dance_core.motion.rig_maps import arms_lowered, renamed
 from dance_core.motion.skeletons import dance24
-from dance_core.recipe import load_recipe
-from dance_core.train import train
 
 sys.path.insert(0, str(Path(__file__).parent))
-from compose_helpers import click_song  # noqa: E402
+from compose_helpers import TINY, click_song, tiny_checkpoint  # noqa: E402
 from test_bvh_dcc import _dance  # noqa: E402
-
-TINY = ["data.dataset.songs=3", "data.dataset.seconds=8", "training.steps=20", "training.batch_size=8",
-        "training.val_every=20", "training.checkpoint_every=20", "training.log_every=10"]
 
 
 @pytest.fixture(scope="module")
 def model(tmp_path_factory):
     """A tiny core-dance checkpoint and a 6 s click-track song at 120 bpm."""
     root = tmp_path_factory.mktemp("delivery")
-    run = train(load_recipe("core-dance", TINY), out=str(root / "run"), quiet=True)
-    return str(run.checkpoint), click_song(root / "song.wav", 6.0)
+    checkpoint = tiny_checkpoint(root)
+    return checkpoint, click_song(root / "song.wav", 6.0)
 
 
 @pytest.fixture

@@ -15,25 +15,19 @@ from dance_core.motion.loop import wrap_jump
 from dance_core.motion.parts import part_joints
 from dance_core.motion.root import heading
 from dance_core.motion.skeleton import Skeleton
-from dance_core.recipe import load_recipe
-from dance_core.train import train
 
 sys.path.insert(0, str(Path(__file__).parent))
-from compose_helpers import click_song  # noqa: E402
+from compose_helpers import TINY, click_song, tiny_checkpoint  # noqa: E402
 from test_bvh_dcc import _dance  # noqa: E402
 from test_motion_edits import jerk, steps  # noqa: E402
-
-TINY = ["data.dataset.songs=3", "data.dataset.seconds=8", "training.steps=20", "training.batch_size=8",
-        "training.val_every=20", "training.checkpoint_every=20", "training.log_every=10"]
 
 
 @pytest.fixture(scope="module")
 def model(tmp_path_factory):
     """A tiny core-dance checkpoint, an 8 s click-track song and a plain dance composed for it."""
     root = tmp_path_factory.mktemp("edits")
-    run = train(load_recipe("core-dance", TINY), out=str(root / "run"), quiet=True)
+    checkpoint = tiny_checkpoint(root)
     song = click_song(root / "song.wav", 8.0)
-    checkpoint = str(run.checkpoint)
     assert compose_cli((checkpoint, song, None), root / "plain") == 0
     return checkpoint, song, root / "plain" / "song.bvh"
 

@@ -19,21 +19,17 @@ from dance_core.recipe import load_recipe
 from dance_core.recipe.schema import TextSpec
 from dance_core.registry import get_registry
 from dance_core.runtime import pick_device
-from dance_core.train import train
 
 sys.path.insert(0, str(Path(__file__).parent))
-from compose_helpers import click_song  # noqa: E402
-
-TINY = ["data.dataset.songs=3", "data.dataset.seconds=8", "training.steps=20", "training.batch_size=8",
-        "training.val_every=20", "training.checkpoint_every=20", "training.log_every=10"]
+from compose_helpers import TINY, click_song, tiny_checkpoint  # noqa: E402
 
 
 @pytest.fixture(scope="module")
 def model(tmp_path_factory):
     """A tiny core-dance checkpoint and a 10 s click-track song at 100 bpm."""
     root = tmp_path_factory.mktemp("start")
-    run = train(load_recipe("core-dance", TINY), out=str(root / "run"), quiet=True)
-    return str(run.checkpoint), click_song(root / "song.wav", 10.0, bpm=100.0)
+    checkpoint = tiny_checkpoint(root)
+    return checkpoint, click_song(root / "song.wav", 10.0, bpm=100.0)
 
 
 def compose_cli(model, out, *extra):
