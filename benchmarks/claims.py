@@ -22,8 +22,9 @@ Every run is cached as JSON under ``--cache``: a re-run skips what finished. ``-
 path (one seed, few steps, short songs; its own cache). ``--steps N [--seeds K]`` is a plateau study: the
 same protocol with a budget of ``N`` steps, so the plateau rule rather than the budget ends each run (its
 own cache; each result's ``best_step`` and ``stopped`` say which ended it). ``--readme`` writes the section
-between the ``claims`` markers of benchmarks/README.md (the full run only). TM2D's fusion-weight experiment
-is benchmarks/text_spans.py.
+between the ``claims`` markers of benchmarks/README.md (the full run only), quoting TM2D's verdict lines
+from their own sections (benchmarks/claims_tm2d.py: late fusion against slerp; claims_tm2d_music.py: the
+music-only quality of the text-trained model). TM2D's fusion-weight experiment is benchmarks/text_spans.py.
 """
 
 from __future__ import annotations
@@ -210,6 +211,9 @@ def main() -> None:
     tm2d = verdict_line("- **TM2D** (late fusion")  # claims_tm2d.py's verdict; its section has the tables
     lines.append(tm2d if tm2d else "- **TM2D**: not run yet: benchmarks/claims_tm2d.py tests its claim (late fusion "
                  "against the slerp baseline at the span edges).")
+    music = verdict_line("- **TM2D, music-only quality**")  # claims_tm2d_music.py's verdict (its own section)
+    if music:
+        lines.append(music)
     text = "\n".join(lines)
     print(text)
     if args.readme and not (args.quick or args.reduced or study):  # only the full run writes the README's figures

@@ -63,6 +63,16 @@ def halves(motion) -> tuple:
     return motion.crop(0, n), motion.crop(n)
 
 
+def real_scale(held: list) -> float:
+    """The real scale: the realism distance between the first and second halves of the held-out takes (both
+    ways, averaged)."""
+    from dance_core.evaluation import realism_distance
+
+    first = np.concatenate([stats(halves(m)[0]) for m in held])
+    second = np.concatenate([stats(halves(m)[1]) for m in held])
+    return (realism_distance(first, second) + realism_distance(second, first)) / 2
+
+
 def statue(beats: np.ndarray, seconds: float, fps: float = FPS):
     """dance24 rigid in its T-pose, 4 cm down on every beat and swaying 10 cm every 2 s."""
     from dance_core import Motion
@@ -200,7 +210,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seconds", type=float, default=30.0)
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
-    from dance_core.evaluation import STATISTICS, realism_distance
+    from dance_core.evaluation import STATISTICS
 
     started = time.time()
     takes = real_takes(args.mocap)
@@ -208,15 +218,14 @@ def main(argv: list[str] | None = None) -> None:
     if missing:
         sys.exit(f"{args.mocap}: held-out takes missing: {', '.join(missing)}")
     reference = np.concatenate([stats(takes[n]) for n in HELD_OUT])
-    first = np.concatenate([stats(halves(takes[n])[0]) for n in HELD_OUT])
-    second = np.concatenate([stats(halves(takes[n])[1]) for n in HELD_OUT])
-    scale = (realism_distance(first, second) + realism_distance(second, first)) / 2
+    scale = real_scale([takes[n] for n in HELD_OUT])
     pool = np.concatenate([stats(m) for n, m in takes.items() if n not in HELD_OUT])
     dancers: dict[str, list[np.ndarray]] = {}
     for n, m in takes.items():  # takes of one dancer: CMU subject 05 (modern), 60 and 61 (salsa)
         dancers.setdefault(n.rsplit("_", 1)[0], []).append(stats(m.crop(0, int(args.seconds * FPS))))
     rows = [{"name": "real: first halves vs second halves (the scale)", "distance": scale, "ratio": 1.0,
-             "windows": len(first) + len(second), "inside": len(STATISTICS), "outside": [], "medians": {},
+             "windows": sum(len(stats(h)) for n in HELD_OUT for h in halves(takes[n])), "inside": len(STATISTICS),
+             "outside": [], "medians": {},
              "spread": spread([g for g in dancers.values() if len(g) > 1], reference)},
             row("real: the other CMU takes (training pool)", pool, reference, scale)]
     held = [takes[n] for n in HELD_OUT]
