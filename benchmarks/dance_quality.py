@@ -62,7 +62,6 @@ REFERENCE = {"seed": 0, "seconds": 60.0, "bpm": (80.0, 140.0), "rate": 22050}
 MIN_LOCKING_RATIO = 3.0
 MAX_FLOAT, MAX_STRETCH = 0.10, 0.05
 MAX_JERK, SPEED_RANGE, DRIFT_RANGE = 1.5, (0.5, 2.0), (0.5, 2.0)
-MIN_REPEAT = 0.05  # m: the dance's end repeating itself closer than this is a loop (real takes: 5.9-17.9 cm)
 MIN_REAL_TIME = 3.0
 
 
@@ -263,6 +262,8 @@ def reference_means(refs: list[tuple[str, Dance, np.ndarray]], fps: float, real:
 
 def targets(row: Row, ref: dict[str, float]) -> dict[str, bool | None]:
     """Which of the five targets a row meets (None where it cannot be judged)."""
+    from dance_core.evaluation.repetition import LOOP_BELOW
+
     s = row.scores
     speed, jerk = s["speed"] / ref["speed"], s["jerk"] / ref["jerk"]
 
@@ -274,7 +275,7 @@ def targets(row: Row, ref: dict[str, float]) -> dict[str, bool | None]:
         "L": bool(np.isfinite(s["body_locking"]) and s["body_locking"] >= MIN_LOCKING_RATIO * control),
         "F": judged(s["float"] <= MAX_FLOAT and s["worst_stretch"] <= MAX_STRETCH, s["float"], s["worst_stretch"]),
         "S": judged(jerk <= MAX_JERK and SPEED_RANGE[0] <= speed <= SPEED_RANGE[1], speed, jerk),
-        "D": judged(DRIFT_RANGE[0] <= s["drift"] <= DRIFT_RANGE[1] and not s["repeat"] < MIN_REPEAT, s["drift"]),
+        "D": judged(DRIFT_RANGE[0] <= s["drift"] <= DRIFT_RANGE[1] and not s["repeat"] < LOOP_BELOW, s["drift"]),
         "R": judged(row.real_time >= MIN_REAL_TIME, row.real_time),
     }
 

@@ -44,3 +44,37 @@ def test_a_dance_that_keeps_changing_is_not_a_loop():
 def test_short_dances_have_no_score_and_shorter_ones_a_smaller_window():
     assert np.isnan(self_repetition(wandering(2.0), FPS, NAMES))
     assert np.isfinite(self_repetition(wandering(12.0), FPS, NAMES))
+
+
+
+def rotations(seconds: float, seed: int) -> np.ndarray:
+    """Every joint of dance24 turning smoothly about its rest, never the same way twice (exponential maps)."""
+    rng = np.random.default_rng(seed)
+    rot = gaussian_filter1d(rng.normal(size=(int(seconds * FPS), len(REST), 3)), 3.0, axis=0)
+    return 0.3 * rot / rot.std()
+
+
+def test_dance_evaluate_names_the_dance_that_loops(tmp_path, capsys):
+    import json
+
+    from dance_core.cli.main import main
+    from dance_core.formats.bvh import BvhFormat
+    from dance_core.motion.motion import Motion
+    from dance_core.motion.rotations import expmap_to_quat
+
+    skel = dance24()
+    (tmp_path / "gen").mkdir()
+    for name, rot in (("looping", np.concatenate([rotations(6.0, 1)] * 8)), ("dancing", rotations(48.0, 2))):
+        root = np.tile(skel.offsets[0], (len(rot), 1))
+        BvhFormat().write_motion(Motion(skel, FPS, root, expmap_to_quat(rot)), tmp_path / "gen" / f"{name}.bvh")
+    code = main(["-q", "evaluate", "--generated", str(tmp_path / "gen"), "--reference", str(tmp_path / "gen"),
+                 "--metrics", "repetition", "--no-plots",
+                 "-o", str(tmp_path / "r.json"), "--json"])
+    assert code == 0
+    report = json.loads(capsys.readouterr().out)
+    result = report["metrics"]["repetition"]
+    per = result["per_clip"]
+    assert per["looping"]["repetition"] < 0.01 < 0.05 < per["dancing"]["repetition"]
+    assert report["values"]["repetition_min"] == per["looping"]["repetition"]
+    assert any("looping" in n and "a loop" in n for n in result["notes"])
+    assert not any("dancing" in n for n in result["notes"])

@@ -52,6 +52,12 @@ def register_metrics(register):
         "Beat locking of the body's own accents (a rigid figure has none), with a wrong-tempo control",
     )
     register(
+        "repetition",
+        e.RepetitionConfig,
+        "dance_core.evaluation.repetition:build_repetition",
+        "Whether a dance has fallen into a loop: its last 40 s against itself 0.5-20 s earlier (m)",
+    )
+    register(
         "mpd",
         e.MPDConfig,
         "dance_core.evaluation.mpd:build_mpd",

@@ -81,6 +81,10 @@ class RealismConfig(ComponentConfig):
     hop_seconds: PositiveFloat = 0.5
 
 
+class RepetitionConfig(ComponentConfig):
+    """No options: the last 40 s against the same stretch 0.5-20 s earlier (``evaluation.repetition``)."""
+
+
 class BodyLockingConfig(ComponentConfig):
     """No options: accents are the body's own (``dance_core.motion.body.body_beats``)."""
 

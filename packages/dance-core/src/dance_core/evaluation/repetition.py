@@ -9,16 +9,25 @@ takes this distance is 7-23 cm; a looping LSTM dancer scored 0.8-5.5 cm.
 :func:`self_repetition`: body poses relative to the pelvis, turned so the hips face one way (a loop that
 turns a little on each cycle is still a loop), the last ``window`` seconds compared frame by frame with the
 same stretch ``lag`` seconds earlier; the smallest mean joint distance over lags of 0.5-20 s.
+:class:`Repetition` is ``dance evaluate``'s metric ``repetition`` over a set of clips.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
+from dance_core.errors import DataError
+from dance_core.evaluation.clips import check_positions, require_clips
+from dance_core.protocols import JointClip, MetricResult
+
 #: seconds compared at the end of the dance, and the range of lags searched
 WINDOW, MIN_LAG, MAX_LAG = 40.0, 0.5, 20.0
+#: metres: a dance whose end repeats itself closer than this has fallen into a loop (held-out real takes:
+#: 5.9-17.9 cm on the quality benchmark's songs, 7-23 cm whole)
+LOOP_BELOW = 0.05
 
 
 def facing_poses(positions: np.ndarray, names: Sequence[str] | None = None) -> np.ndarray:
@@ -28,7 +37,6 @@ def facing_poses(positions: np.ndarray, names: Sequence[str] | None = None) -> n
     rel = p - p[:, :1]
     if names is None:
         return rel
-    from dance_core.errors import DataError
     from dance_core.motion.body import Body, hip_heading
 
     try:
@@ -64,3 +72,34 @@ def self_repetition(positions: np.ndarray, fps: float, names: Sequence[str] | No
         earlier = poses[n - span - lag:n - lag]
         best = min(best, float(np.linalg.norm(end - earlier, axis=-1).mean()))
     return best
+
+
+class Repetition:
+    """``repetition``: :func:`self_repetition` of each clip (m), their mean and the smallest; a clip under
+    3 s is skipped with a note, one under :data:`LOOP_BELOW` is named as a loop."""
+
+    needs: tuple[str, ...] = ()
+
+    def __call__(self, generated: Sequence[JointClip], reference: Sequence[JointClip] | None = None) -> MetricResult:
+        """Score the generated clips (the reference is not used)."""
+        require_clips(generated, 1, "repetition")
+        per_clip, notes = {}, []
+        for clip in generated:
+            d = self_repetition(check_positions(clip), clip.fps, list(clip.joints) if clip.joints else None)
+            if not np.isfinite(d):
+                notes.append(f"repetition: {clip.name}: under 3 s; skipped")
+                continue
+            per_clip[clip.name] = {"repetition": d}
+            if d < LOOP_BELOW:
+                notes.append(f"repetition: {clip.name}: its end repeats itself within {100 * d:.1f} cm: a loop "
+                             f"(real dance: above {100 * LOOP_BELOW:g} cm)")
+        if not per_clip:
+            raise DataError("repetition: every clip is under 3 s")
+        values = [v["repetition"] for v in per_clip.values()]
+        return MetricResult({"repetition": float(np.mean(values)), "repetition_min": float(np.min(values))},
+                            per_clip, notes)
+
+
+def build_repetition(config: Any, **_: Any) -> Repetition:
+    """``repetition``."""
+    return Repetition()
