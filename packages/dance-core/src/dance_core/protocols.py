@@ -138,6 +138,50 @@ class OutputHead(Protocol):
 
 
 @runtime_checkable
+class LiveStream(Protocol):
+    """Live generation behind a song-level encoder whose latent reads a bounded neighbourhood of music
+    (``dance live``): what a head's optional hook ``live_stream(encoder, lookahead, generator, temperature)``
+    gives, or None when the encoder reads the whole song (then the model cannot dance live). ``lookahead``:
+    frames of music past a step's frames it may wait for (None: the head's default; a value at least the
+    model's whole reach gives ``dance compose``'s frames exactly). Batch of one, normalized motion."""
+
+    t: int  # frames given out or skipped so far
+    lookahead: int  # the most frames of music past a frame's own that it waits for
+
+    def add(self, cond: Mapping[str, torch.Tensor]) -> None:
+        """Append conditioned music frames ``{stream: (1, k, C)}``."""
+        ...
+
+    def end(self) -> None:
+        """No more music."""
+        ...
+
+    def ready(self) -> int:
+        """Frames that may be given now."""
+        ...
+
+    def step(self) -> torch.Tensor:
+        """The next frames ``(k, D)`` (empty when none is ready)."""
+        ...
+
+    def skip(self, n: int) -> None:
+        """Drop about ``n`` of the next frames (the head says how it holds the dance meanwhile)."""
+        ...
+
+    def newest(self, frame: int) -> int:
+        """The last music frame that frame ``frame`` waits for."""
+        ...
+
+    def first_open(self) -> int:
+        """The first frame not generated yet: a text span given now can act from there on."""
+        ...
+
+    def texts(self, spans: TextSpans | None) -> None:
+        """The text spans known now (one row, over the frames from the song's start); replaces earlier ones."""
+        ...
+
+
+@runtime_checkable
 class FeatureExtractor(Protocol):
     """Audio and/or text to ``(n_frames, dim)`` float32 features at ``fps``.
 

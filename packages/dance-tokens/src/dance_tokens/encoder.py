@@ -35,15 +35,22 @@ class AudioEncoder(nn.Module):
         self.embed = nn.Linear(in_dim, c.dim)
         self.transformer = Encoder(c.layers, c.dim, c.heads, c.ffn, c.dropout)
 
-    def forward(self, motion: torch.Tensor | None, cond: Mapping[str, torch.Tensor]) -> torch.Tensor:
-        """The per-frame latent of the whole conditioning sequence (``motion`` is unused)."""
+    def forward(self, motion: torch.Tensor | None, cond: Mapping[str, torch.Tensor], start: int = 0) -> torch.Tensor:
+        """The per-frame latent of the whole conditioning sequence (``motion`` is unused); ``start``: the song's
+        token the sequence starts at (a window of the song, live), so its positions are the song's."""
         c = self.config
         music = torch.cat([cond[name] for name in self.streams], dim=-1)
         tokens = to_tokens(music, c.downsample, c.pool)
-        positions = torch.arange(tokens.shape[1], device=music.device)
+        positions = torch.arange(start, start + tokens.shape[1], device=music.device)
         mask = None if c.radius is None else band_mask(positions, positions, c.radius)
         hidden = self.transformer(self.embed(tokens), mask, positions)
         return to_frames(hidden, c.downsample, music.shape[1])
+
+    def reach(self) -> int | None:
+        """Tokens on either side of its own that a token's latent depends on (``radius`` per layer), or None
+        when the attention is global (a token reads the whole song)."""
+        c = self.config
+        return None if c.radius is None else c.radius * c.layers
 
 
 def build(config, *, cond_dims: Mapping[str, int], **_: Any) -> AudioEncoder:

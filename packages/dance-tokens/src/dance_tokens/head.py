@@ -172,11 +172,11 @@ class TM2DHead(nn.Module):
         table = self.text_table(song.spans, strict=False)
         if table is not None:
             index, ids = table
-            self._lay_texts(state, index[:, token_middles(index.shape[1], self.t, audio.shape[1]).to(index.device)],
+            self.lay_texts(state, index[:, token_middles(index.shape[1], self.t, audio.shape[1]).to(index.device)],
                             ids)
         return state
 
-    def _lay_texts(self, state: TokenState, index: torch.Tensor, ids: torch.Tensor) -> None:
+    def lay_texts(self, state: TokenState, index: torch.Tensor, ids: torch.Tensor) -> None:
         """Fill the state's spans from the span in force at each token ``(B, N)`` and the spans' ids ``(S, W)``:
         one text memory per run of a span, its fusion weights over the run."""
         batch, n = index.shape
@@ -206,6 +206,16 @@ class TM2DHead(nn.Module):
         if state.grows:
             new = self.prior.audio(to_tokens(latent, self.t)[:, :1])
             state.audio = new if state.audio is None else torch.cat([state.audio, new], dim=1)
+        self.next_token(state, state.audio, 0, temperature, generator)
+        past, _ = self.tokenizer.receptive_field()
+        frames = self.tokenizer.decode(state.tokens[:, -(past + 1) :])[:, -self.t :]
+        return frames, state
+
+    def next_token(self, state: TokenState, audio: torch.Tensor, first: int, temperature: float = 1.0,
+                   generator: torch.Generator | None = None) -> torch.Tensor:
+        """Sample the next token ``(B,)`` and append it to ``state.tokens``, the decoder reading the audio
+        memory ``audio (B, M, dim)`` (projected), the song's audio tokens ``first .. first + M - 1``
+        (``first`` > 0: a window of the song, live)."""
         i = state.tokens.shape[1]
         bos = state.tokens.new_full((state.tokens.shape[0], 1), self.prior.bos)
         seq = torch.cat([bos, state.tokens], dim=1)
@@ -213,7 +223,7 @@ class TM2DHead(nn.Module):
         if context is not None:
             seq = seq[:, -context:]
         positions = torch.arange(i + 1 - seq.shape[1], i + 1, device=seq.device)
-        audio, audio_positions = self._audio_window(state.audio, positions)
+        audio, audio_positions = self._audio_window(audio, positions, first)
         hidden = self.prior.hidden_audio(seq, positions, audio, audio_positions)[:, -1]
         if state.weight is not None and i < state.weight.shape[1]:
             w = state.weight[:, i]
@@ -227,18 +237,30 @@ class TM2DHead(nn.Module):
                 hidden[rows] = wr * text + (1 - wr) * hidden[rows]
         token = sample_top_k(self.prior.logits(hidden), self.config.top_k, temperature, generator)
         state.tokens = torch.cat([state.tokens, token[:, None]], dim=1)
-        past, _ = self.tokenizer.receptive_field()
-        frames = self.tokenizer.decode(state.tokens[:, -(past + 1) :])[:, -self.t :]
-        return frames, state
+        return token
 
-    def _audio_window(self, audio: torch.Tensor, positions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """The audio tokens the queries at ``positions`` can reach, and their positions."""
-        radius, last = self.config.prior.radius, audio.shape[1]
-        lo, hi = 0, last
+    def _audio_window(self, audio: torch.Tensor, positions: torch.Tensor,
+                      first: int = 0) -> tuple[torch.Tensor, torch.Tensor]:
+        """The audio tokens the queries at ``positions`` can reach (of ``audio``, the song's tokens from
+        ``first`` on), and their positions."""
+        radius, last = self.config.prior.radius, first + audio.shape[1]
+        lo, hi = first, last
         if radius is not None:
-            lo = max(0, min(int(positions[0]) - radius, last - 1))
+            lo = max(first, min(int(positions[0]) - radius, last - 1))
             hi = min(last, int(positions[-1]) + radius + 1)
-        return audio[:, lo:hi], torch.arange(lo, hi, device=audio.device)
+        return audio[:, lo - first : hi - first], torch.arange(lo, hi, device=audio.device)
+
+    def live_stream(self, encoder, lookahead: int | None = None, generator: torch.Generator | None = None,
+                    temperature: float = 1.0):
+        """``dance live``'s generation (:class:`dance_tokens.live.TokenStream`, ``lookahead`` in frames), or None
+        when the audio encoder or the prior's audio attention is global (a token reads the whole song)."""
+        reach = getattr(encoder, "reach", None)
+        reach = reach() if reach is not None else None
+        if reach is None or self.config.prior.radius is None:
+            return None
+        from dance_tokens.live import TokenStream
+
+        return TokenStream(self, encoder, reach, lookahead, generator, temperature)
 
     def finish(self, motion: torch.Tensor, state: TokenState) -> torch.Tensor:
         """Motion ``(B, n, D)`` with its generated frames replaced by the joint decoding of every token

@@ -5,8 +5,12 @@ It is :meth:`dance_core.model.ComposedModel.generate`'s windowed loop cut open: 
 ``t`` reads the music frames ``t - cond_past .. t + cond_future - 1`` (the first frame repeated before
 the song, the last after it, as offline), so a frame waits for ``cond_future`` frames of music (the
 Transflower recipes: 10 frames, 0.5 s). Fed the same features, it gives the same frames as ``dance
-compose`` with one sample (tested). Song-level encoders (DanceRevolution's bidirectional encoder)
-read the whole song and cannot run live.
+compose`` with one sample (tested).
+
+Behind a song-level encoder the head's ``live_stream`` hook (:class:`dance_core.protocols.LiveStream`)
+does the stepping, when the encoder's latent reads a bounded neighbourhood of music (TM2D's banded
+encoder, with a look-ahead of its own); one that reads the whole song at once (DanceRevolution's
+bidirectional encoder) cannot run live.
 """
 
 from __future__ import annotations
@@ -25,16 +29,25 @@ class LiveGenerator:
     next ones (normalized ``(k, D)`` NumPy), ``skip(n)`` drops ``n`` frames (the last pose is held in
     the history the model reads), ``end()`` marks the end of the music (its last frame is repeated)."""
 
-    def __init__(self, model: ComposedModel, recipe: Recipe, seed: torch.Tensor, device: torch.device):
+    def __init__(self, model: ComposedModel, recipe: Recipe, seed: torch.Tensor, device: torch.device,
+                 lookahead: int | None = None):
         w, head = model.window, model.head
-        if w.song_level:
-            raise DataError(f"live: the encoder ({type(model.encoder).__name__}) reads the whole song at once; "
-                            "it cannot dance live (windowed encoders can: Transflower, MoGlow, window-mlp)")
         self.model, self.device = model, device
-        self.keep = min(recipe.compose.keep or head.keep, head.frames)
         self.temperature = recipe.compose.temperature
         torch.manual_seed(recipe.seed)
         self.generator = torch.Generator(device=device).manual_seed(recipe.seed)
+        self.stream = None  # a song-level model's LiveStream (lookahead: its music look-ahead in frames)
+        if w.song_level:
+            hook = getattr(head, "live_stream", None)
+            self.stream = hook(model.encoder, lookahead, self.generator, self.temperature) if hook else None
+            if self.stream is None:
+                raise DataError(f"live: the encoder ({type(model.encoder).__name__}) reads the whole song at once; "
+                                "it cannot dance live (windowed encoders can: Transflower, MoGlow, window-mlp; and "
+                                "tm2d-audio with a radius)")
+            self.lookahead = self.stream.lookahead
+            return
+        self.lookahead = w.cond_future  # frames of music past a frame's own that it waits for
+        self.keep = min(recipe.compose.keep or head.keep, head.frames)
         self.state = head.init_state(1, self.generator)
         self.start = model.start_frames()
         self.memory = max(w.motion_past, head.history_frames)
@@ -52,6 +65,9 @@ class LiveGenerator:
             return
         x = self.model.condition({n: torch.from_numpy(np.ascontiguousarray(v))[None].to(self.device)
                                   for n, v in streams.items()})
+        if self.stream is not None:
+            self.stream.add(x)
+            return
         if self.cond is None:  # the song's first frame stands in for the frames before it
             w = self.model.window
             x = {n: torch.cat([v[:, :1].expand(-1, w.cond_past, -1), v], 1) for n, v in x.items()}
@@ -62,16 +78,47 @@ class LiveGenerator:
 
     def end(self) -> None:
         """No more music: later steps read its last frame repeated."""
+        if self.stream is not None:
+            self.stream.end()
+            return
         self.ended = True
+
+    @property
+    def t(self) -> int:
+        """Frames given out (or skipped) so far."""
+        return self.stream.t if self.stream is not None else self._t
+
+    @t.setter
+    def t(self, value: int) -> None:
+        self._t = value
+
+    def newest(self, frame: int) -> int:
+        """The last music frame that frame ``frame`` waits for."""
+        return self.stream.newest(frame) if self.stream is not None else frame + self.lookahead - 1
+
+    def first_open(self) -> int:
+        """The first frame not generated yet (a text span given now can act from there on)."""
+        return self.stream.first_open() if self.stream is not None else self.t
+
+    def texts(self, spans) -> None:
+        """The text spans known now (a ``TextSpans`` of one row from the song's start) for a song-level head
+        that reads them; windowed models read text as per-frame streams (``LiveFeatures``)."""
+        if self.stream is not None:
+            self.stream.texts(spans)
 
     def ready(self) -> int:
         """Frames that may be given now (their music window is known)."""
+        if self.stream is not None:
+            return self.stream.ready()
         if self.ended:
             return max(0, self.frames - self.t)
         return max(0, self.frames - self.model.window.cond_future + 1 - self.t)
 
     def skip(self, n: int) -> None:
         """Drop the next ``n`` frames: the last pose is held in the history."""
+        if self.stream is not None:
+            self.stream.skip(n)
+            return
         n = min(n, max(0, self.frames - self.t)) if self.ended else n
         if n <= 0:
             return
@@ -84,6 +131,11 @@ class LiveGenerator:
     @torch.inference_mode()
     def step(self) -> np.ndarray:
         """The next frames, ``(k, D)`` normalized (the seed's frames first); empty when none is ready."""
+        if self.stream is not None:
+            out = self.stream.step().float().cpu().numpy()
+            if not np.all(np.isfinite(out)):
+                raise DataError(f"live: the model produced NaN or inf motion at frame {self.t - len(out)}")
+            return out
         if self.ready() <= 0:
             return np.zeros((0, self.motion.shape[2]), np.float32)
         if self.t < self.start:  # the seed motion fills the first frames

@@ -9,8 +9,9 @@ behind the music it may step on, it drops frames (holding the last pose) and cou
 **Latency** of a frame: from the arrival of the audio block that completed the newest music frame it
 reads (so the first frame that can react to those samples) to the frame handed to the sinks. Samples
 earlier in the same frame hop wait up to one hop more (50 ms at 20 fps). The frame for music time
-``t`` needs the audio up to ``t + music_delay`` (the model's ``cond_future`` frames and the features'
-look-ahead), so a figure shown with the music lags it by that much unless the audio is delayed too.
+``t`` needs the audio up to ``t + music_delay`` (the model's look-ahead: a windowed encoder's
+``cond_future`` frames, a song-level model's own, and the features' look-ahead), so a figure shown
+with the music lags it by that much unless the audio is delayed too.
 """
 
 from __future__ import annotations
@@ -147,11 +148,11 @@ class LiveSession:
 
     def summary(self) -> dict[str, Any]:
         """The report of the session so far."""
-        w = self.composer.model.window
+        model = self.generator.lookahead / self.fps
         return self.stats.summary({
             "fps": self.fps, "input": self.source.name, "rate": self.source.rate,
-            "lookahead_s": {"features": round(self.features.lookahead, 4), "model": round(w.cond_future / self.fps, 4)},
-            "music_delay_s": round(self.features.lookahead + w.cond_future / self.fps, 4),
+            "lookahead_s": {"features": round(self.features.lookahead, 4), "model": round(model, 4)},
+            "music_delay_s": round(self.features.lookahead + model, 4),
             "threads": self.threads, "outputs": {s.name: s.stats() for s in self.sinks},
             "grounded": self.poses.grounding is not None, "grounding_lookahead_s": round(self.poses.lookahead, 4),
             "beat_lock": self._lock_summary(),
@@ -212,7 +213,7 @@ class LiveSession:
         message = frame_message(index, self.fps, self.poses(index, frame))
         for sink in self.sinks:
             sink.send(message)
-        newest = min(index + self.composer.model.window.cond_future - 1, len(self.arrivals) - 1)
+        newest = min(self.generator.newest(index), len(self.arrivals) - 1)
         self.stats.latencies.append(time.perf_counter() - self.arrivals[newest])
         self.stats.times.append(index / self.fps)
         self.stats.frames += 1
