@@ -21,7 +21,8 @@ def add_parser(subparsers) -> None:
         "  dance live default --input song.ogg --output -\n"
         "  ffmpeg -i song.mp3 -f s16le -ac 1 -ar 22050 - | dance live default --input - --rate 22050 --output -\n"
         "  dance live default --input song.ogg --output ws://127.0.0.1:8765 --open\n"
-        "  dance live default --input mic --output osc://127.0.0.1:39539 --json",
+        "  dance live default --input mic --output osc://127.0.0.1:39539 --json\n"
+        '  dance live tm2d-small --input song.ogg --output - --text "10-20: a person jumps" --control -',
     )
     p.add_argument("recipe", help="recipe file or bundled recipe name (dance recipe list)")
     p.add_argument("--input", required=True, metavar="SOURCE",
@@ -38,6 +39,15 @@ def add_parser(subparsers) -> None:
                    help="seconds generation may fall behind before it drops frames")
     p.add_argument("--idle", type=bounded_number(float, 0.0, 3600.0, above=True), default=10.0, metavar="S",
                    help="end with an error when standard input sends nothing for S seconds")
+    p.add_argument("--text", dest="texts", action="append", default=[], metavar="START-END: TEXT",
+                   help='a text span in seconds of music, e.g. "10-20: a person jumps", or "now: TEXT" (from the '
+                        "start, 4 s); repeatable; models that read text only (tm2d-small)")
+    p.add_argument("--control", metavar="SOURCE",
+                   help="text commands while dancing, one a line (now: TEXT, START-END: TEXT): - (standard input, "
+                        "unless it carries the audio) or tcp://127.0.0.1:PORT (answers ok/error per line)")
+    p.add_argument("--lookahead", type=bounded_number(float, 0.0, 60.0), metavar="S",
+                   help="seconds of music a song-level model (tm2d-small) waits for past a token (default: its "
+                        "own, about 0.5 s; its whole reach, 6.4 s, gives dance compose's dance)")
     p.add_argument("--open", action="store_true", help="open the live page of the ws:// output in a browser")
     p.add_argument("--json", action="store_true",
                    help="print a JSON summary at the end: latency distribution, drops (on stderr when --output -)")
@@ -49,22 +59,37 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     """Open the outputs (ports, hosts) and the input, load the model, dance until the input ends."""
     from dance_core.api import Composer
+    from dance_core.compose.inputs import reads_text
+    from dance_core.errors import DataError
+    from dance_core.live.control import open_control
     from dance_core.live.session import LiveSession
     from dance_core.live.sinks import open_sinks
     from dance_core.live.sources import PcmSource, open_source
+    from dance_core.live.texts import parse_command
     from dance_core.recipe import load_recipe
+    from dance_core.registry import get_registry
 
     recipe = load_recipe(args.recipe, args.sets)
+    if (args.texts or args.control) and not reads_text(recipe, get_registry()):
+        raise DataError(f"--text/--control: recipe {recipe.name} reads no text (no text stream in its features); "
+                        "a model that does, such as tm2d-small, can follow text live")
+    for given in args.texts:
+        parse_command(given, 0.0)  # a malformed span is one line before anything opens
     sinks = open_sinks(args.output, f"dance live: {recipe.name}")
+    control = None
     try:
+        control = open_control(args.control, args.input == "-")
         source = open_source(args.input, args.rate, args.speed, None, recipe.format_options) \
             if args.input in ("-", "mic") else _file_source(args, recipe)
         if isinstance(source, PcmSource):
             source.idle = args.idle
-        session = LiveSession(Composer(recipe, args.checkpoint), source, sinks, args.seed_motion, args.max_lag)
+        session = LiveSession(Composer(recipe, args.checkpoint), source, sinks, args.seed_motion, args.max_lag,
+                              args.texts, control, args.lookahead)
     except BaseException:
         for sink in sinks:
             sink.shutdown()
+        if control is not None:
+            control.shutdown()
         raise
     if args.open:
         _open_page(sinks, args.quiet)

@@ -9,6 +9,8 @@ frame is taken once the audio reaches its time plus the extractor's ``lookahead`
 attribute the extractor may declare; :data:`DEFAULT_LOOKAHEAD` otherwise). Extractors whose frames
 read only a window around their time (log-mel, onset flux, energy) then give the offline values;
 one that normalises over the whole song (``mel`` with ``reference: max``) cannot, and says so.
+A text stream (``word-tokens``) gives, per frame, the row of the span in force among those given so far
+(:class:`dance_core.live.texts.LiveTexts`; zeros where none is, as offline).
 """
 
 from __future__ import annotations
@@ -91,15 +93,21 @@ class LiveFeatures:
         self.parts: dict[str, list] = {}
         self.beat_part: tuple[str, int] | None = None  # (stream, index) of the beat tracker among the parts
         self.beat_rows: list[np.ndarray] = []
+        self.text_streams = stack.text_streams()
+        self.texts = None  # the session's LiveTexts: the text streams' values (zeros without it)
+        self.text_dims = {s: sum(x.dim() for _, x in stack.streams[s]) for s in self.text_streams}
         for stream, extractors in stack.streams.items():
             if stream not in checkpoint.stats.streams:
                 raise DataError(f"live: feature stream {stream!r} has no statistics in {checkpoint.path}")
+            if stream in self.text_streams:
+                continue
             parts = []
             for plugin, extractor in extractors:
                 if plugin in beats and self.beat_part is None:
                     self.beat_part = (stream, len(parts))
                 if isinstance(extractor, SpanFeatureExtractor):
-                    raise DataError(f"live: feature {plugin!r} reads text; text streams are not live yet")
+                    raise DataError(f"live: feature {plugin!r} reads text in stream {stream!r} beside audio "
+                                    "features; live, a text stream holds text extractors alone")
                 live = getattr(extractor, "streaming", None)
                 parts.append(live(self.fps, self.rate) if live else RollingExtractor(plugin, extractor, self.fps,
                                                                                       self.rate))
@@ -140,6 +148,10 @@ class LiveFeatures:
     def _ready(self) -> dict[str, np.ndarray]:
         k = min(len(x) for xs in self.pending.values() for x in xs)
         out = {}
+        for stream in self.text_streams:  # the spans given so far, laid over the new frames as offline
+            values = self.texts.per_frame(stream, self.frames, self.frames + k) if self.texts is not None else \
+                np.zeros((k, self.text_dims[stream]), np.float32)
+            out[stream] = self.stats.streams[stream].apply(values).astype(np.float32)
         if self.beat_part is not None and k:
             self.beat_rows.append(self.pending[self.beat_part[0]][self.beat_part[1]][:k])
         for stream, parts in self.pending.items():

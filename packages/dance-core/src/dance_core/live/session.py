@@ -17,6 +17,7 @@ with the music lags it by that much unless the audio is delayed too.
 from __future__ import annotations
 
 import queue
+import sys
 import threading
 import time
 from dataclasses import dataclass, field
@@ -29,6 +30,7 @@ from dance_core.live.beat_lock import BeatClock
 from dance_core.live.features import LiveFeatures
 from dance_core.live.generator import LiveGenerator
 from dance_core.live.pose import LivePoses, Pose, PoseDecoder
+from dance_core.live.texts import LiveTexts, parse_command
 
 #: seconds generation may fall behind the music it could step on before it drops frames
 MAX_LAG = 0.25
@@ -77,7 +79,8 @@ class LiveSession:
     """One run of ``dance live``: ``run()`` plays the source to its end (or Ctrl-C, or every sink's
     consumer gone) and returns the summary."""
 
-    def __init__(self, composer, source, sinks: list, seed_motion: str | None = None, max_lag: float = MAX_LAG):
+    def __init__(self, composer, source, sinks: list, seed_motion: str | None = None, max_lag: float = MAX_LAG,
+                 texts: list[str] = (), control=None, lookahead: float | None = None):
         from dance_core.runtime import generation_threads
 
         self.composer, self.source, self.sinks = composer, source, sinks
@@ -87,7 +90,18 @@ class LiveSession:
         self.features = LiveFeatures(composer.stack, composer.checkpoint, source.rate, beats)
         if recipe.compose.beat_align and self.features.beat_part is None:
             self.features.tracker = _tracker(composer.registry, self.fps, source.rate)
-        self.generator = LiveGenerator(composer.model, recipe, composer.seed(seed_motion), composer.device)
+        self.generator = LiveGenerator(composer.model, recipe, composer.seed(seed_motion), composer.device,
+                                       None if lookahead is None else int(round(lookahead * self.fps)))
+        self.texts, self.control, self.commands = None, control, queue.Queue()
+        self.text_log: list[dict] = []  # what each command did
+        if texts or control is not None:
+            self.texts = LiveTexts(composer.stack, composer.checkpoint, composer.device)
+            self.features.texts = self.texts
+            for given in texts:
+                span = parse_command(given, 0.0)
+                self.texts.add(span)
+                self.text_log.append(_logged(given, span))
+            self.generator.texts(self.texts.spans())
         self.decoder = PoseDecoder(composer.checkpoint, composer.registry, self.fps)
         tracked = self.features.beat_part is not None or self.features.tracker is not None
         self.clock = BeatClock(self.fps) if recipe.compose.beat_align and tracked else None
@@ -105,6 +119,8 @@ class LiveSession:
         """Play the source through; the summary (``stopped`` says why it ended)."""
         for sink in self.sinks:
             sink.start(self.decoder.skeleton_json())
+        if self.control is not None:
+            self.control.start(self)
         worker = threading.Thread(target=self._generate, name="live-generate", daemon=True)
         begin = time.perf_counter()
         worker.start()
@@ -130,6 +146,8 @@ class LiveSession:
             self.stats.stopped = "input error"
         finally:
             self.source.close()
+            if self.control is not None:
+                self.control.shutdown()
             self.inbox.put(None)
             try:
                 worker.join()
@@ -156,7 +174,46 @@ class LiveSession:
             "threads": self.threads, "outputs": {s.name: s.stats() for s in self.sinks},
             "grounded": self.poses.grounding is not None, "grounding_lookahead_s": round(self.poses.lookahead, 4),
             "beat_lock": self._lock_summary(),
+            **({"texts": list(self.text_log)} if self.texts is not None else {}),
         })
+
+    # -- text commands (from the control's threads; applied by the generation thread before it steps)
+
+    def command(self, line: str, reply=None) -> None:
+        """Queue a text command (``now: TEXT``, ``START-END: TEXT``); ``reply`` gets one line about it."""
+        self.commands.put((line, reply, None))
+
+    def refuse(self, message: str, reply=None) -> None:
+        """Queue input that is no command (reported in its turn among the commands)."""
+        self.commands.put((None, reply, message))
+
+    def _refuse(self, message: str, reply) -> None:
+        """One line on standard error (and to the client)."""
+        print(f"dance: live: {message}", file=sys.stderr, flush=True)
+        if len(self.text_log) < 1000:
+            self.text_log.append({"command": None, "error": message})
+        if reply is not None:
+            reply(f"error: {message}")
+
+    def _apply_commands(self) -> None:
+        while True:
+            try:
+                line, reply, error = self.commands.get_nowait()
+            except queue.Empty:
+                return
+            if error is not None:
+                self._refuse(error, reply)
+                continue
+            try:
+                span = parse_command(line, self.generator.first_open() / self.fps)
+                self.texts.add(span)
+            except DanceError as exc:
+                self._refuse(str(exc), reply)
+                continue
+            self.generator.texts(self.texts.spans())
+            self.text_log.append(_logged(line, span))
+            if reply is not None:
+                reply(f"ok: {span.start:.2f}-{span.end:.2f}: {span.text}")
 
     def _lock_summary(self) -> dict[str, Any] | None:
         lock = self.poses.lock
@@ -188,6 +245,7 @@ class LiveSession:
                 if item is None:
                     ended = True
                     gen.end()
+                self._apply_commands()
                 behind = gen.ready()
                 if not ended and behind > self.max_lag:
                     gen.skip(behind - 1)
@@ -217,6 +275,11 @@ class LiveSession:
         self.stats.latencies.append(time.perf_counter() - self.arrivals[newest])
         self.stats.times.append(index / self.fps)
         self.stats.frames += 1
+
+
+def _logged(command: str, span) -> dict[str, Any]:
+    """A text command as the summary lists it."""
+    return {"command": command[:100], "start": round(span.start, 3), "end": round(span.end, 3), "text": span.text}
 
 
 def _tracker(registry, fps: float, rate: int):
