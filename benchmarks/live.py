@@ -26,6 +26,7 @@ live`` plays: a deliberate competing load, under which frames are dropped and co
 Every row reports the machine's load average (``os.getloadavg``) before and after the song plays.
 
     python benchmarks/live.py [--songs A.ogg B.ogg] [--speed 1] [--minutes 10] [--load 2] [--json]
+        [--recipe tm2d-small --lookahead 0.5 --seconds 30]
 """
 
 from __future__ import annotations
@@ -46,13 +47,14 @@ AUDIO = ROOT.parent / "shared" / "fixtures" / "audio"
 RATE = 22050
 
 
-def samples(path: Path) -> np.ndarray:
-    """A song's mono samples at RATE (dance-audio's reader)."""
+def samples(path: Path, seconds: float | None = None) -> np.ndarray:
+    """A song's mono samples at RATE (dance-audio's reader), its first ``seconds`` when given."""
     from dance_audio.timing import resample
     from dance_core import get_registry, load_audio
 
     audio = load_audio(path, get_registry())
-    return resample(audio.samples, audio.rate, RATE)
+    y = resample(audio.samples, audio.rate, RATE)
+    return y if seconds is None else y[: int(seconds * RATE)]
 
 
 def pcm(y: np.ndarray) -> bytes:
@@ -81,13 +83,15 @@ def load_average() -> list[float]:
     return [round(x, 2) for x in os.getloadavg()]
 
 
-def live(data: bytes, speed: float, load: int = 0) -> tuple[dict, list[dict]]:
-    """The summary and frames of ``dance live`` fed PCM ``data`` at ``speed`` times real time, with ``load``
-    busy processes beside it; the summary gains the load averages before and after (``load_avg``)."""
+def live(data: bytes, speed: float, load: int = 0, recipe: str = "default", extra: tuple[str, ...] = ()
+         ) -> tuple[dict, list[dict]]:
+    """The summary and frames of ``dance live RECIPE`` (with ``extra`` options) fed PCM ``data`` at ``speed``
+    times real time, with ``load`` busy processes beside it; the summary gains the load averages before and
+    after (``load_avg``)."""
     before = load_average()
     hogs = busy(load)
     try:
-        summary, frames = _live(data, speed)
+        summary, frames = _live(data, speed, recipe, extra)
     finally:
         for hog in hogs:
             hog.kill()
@@ -96,12 +100,12 @@ def live(data: bytes, speed: float, load: int = 0) -> tuple[dict, list[dict]]:
     return summary, frames
 
 
-def _live(data: bytes, speed: float) -> tuple[dict, list[dict]]:
+def _live(data: bytes, speed: float, recipe: str, extra: tuple[str, ...]) -> tuple[dict, list[dict]]:
     """The summary and frames of ``dance live`` fed PCM ``data`` at ``speed`` times real time."""
     env = dict(os.environ, OMP_NUM_THREADS="1")
-    proc = subprocess.Popen([sys.executable, "-m", "dance_core.cli.main", "live", "default", "--input", "-", "--rate",
-                             str(RATE), "--output", "-", "--json"], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, env=env)
+    proc = subprocess.Popen([sys.executable, "-m", "dance_core.cli.main", "live", recipe, "--input", "-", "--rate",
+                             str(RATE), "--output", "-", "--json", *extra], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
 
     def feed() -> None:
         time.sleep(8.0)  # the model loads first (a player would start once it is up)
@@ -155,11 +159,15 @@ def main() -> None:
     parser.add_argument("--speed", type=float, default=1.0)
     parser.add_argument("--minutes", type=float, help="play one song this long (the fixtures in a row): latency only")
     parser.add_argument("--load", type=int, default=0, help="busy processes competing for the cores meanwhile")
+    parser.add_argument("--recipe", default="default", help="the recipe danced (default: default)")
+    parser.add_argument("--lookahead", type=float, help="dance live --lookahead (song-level models: tm2d-small)")
+    parser.add_argument("--seconds", type=float, help="each song's first seconds only")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
+    extra = () if args.lookahead is None else ("--lookahead", str(args.lookahead))
 
     if args.minutes:
-        summary, frames = live(pcm(long_song(args.minutes)), args.speed, args.load)
+        summary, frames = live(pcm(long_song(args.minutes)), args.speed, args.load, args.recipe, extra)
         row = {"song": f"fixtures in a row, {args.minutes:g} min", "seconds": summary["music_seconds"],
                "frames": summary["frames"], "dropped": summary["dropped_frames"], "latency_ms": summary["latency_ms"],
                "latency_ms_by_minute": summary["latency_ms_by_minute"], "beat_lock": summary.get("beat_lock"),
@@ -170,14 +178,17 @@ def main() -> None:
               f"{lat['p95']:.1f} max {lat['max']:.1f} ms; {minutes_table(summary)}; load {row['load_avg']}")
         return
 
-    compare(args.songs, lambda composer, song: live(pcm(samples(song)), args.speed, args.load), args.json,
-            {"speed": args.speed})
+    compare(args.songs, lambda composer, song: live(pcm(samples(song, args.seconds)), args.speed, args.load,
+                                                    args.recipe, extra),
+            args.json, {"speed": args.speed, "recipe": args.recipe, "lookahead": args.lookahead}, args.recipe,
+            args.seconds)
 
 
-def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None) -> list[dict]:
-    """For each song, the live dance (``play(composer, song)`` gives ``live``'s summary and frames) against the
-    offline one: locking, floor and motion, with the summary's latency, drops and load; printed as lines, or as
-    JSON at the end."""
+def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None, recipe: str = "default",
+            seconds: float | None = None) -> list[dict]:
+    """For each song (its first ``seconds``), the live dance of ``recipe`` (``play(composer, song)`` gives
+    ``live``'s summary and frames) against the offline one: locking, floor and motion, with the summary's
+    latency, drops and load; printed as lines, or as JSON at the end."""
     import torch
 
     from dance_audio.beats import track_beats
@@ -186,7 +197,7 @@ def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None) -
     from dance_core.motion import Motion
 
     torch.set_num_threads(1)
-    composer = Composer(load_recipe("default"))
+    composer = Composer(load_recipe(recipe))
     skeleton = composer.checkpoint.motion.skeleton
     names = skeleton.names
     rows = []
@@ -197,7 +208,8 @@ def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None) -
                              np.array([f["rotations"] for f in frames]))
         live_pos = np.array([f["positions"] for f in frames])
         beats = track_beats(load_audio(song, get_registry())).times
-        s = composer.song(song)
+        beats = beats if seconds is None else beats[beats < seconds]
+        s = composer.song(song, seconds)
         offline = composer.dances(s, composer.generate(s))[0]  # as dance compose writes it
         off_motion = offline.skeleton_motion
         off_pos = off_motion.positions()

@@ -7,6 +7,7 @@ music is known and every frame is posed (``LivePoses``: grounding, beat lock). N
 ``--lookahead S`` sets the grounding's look-ahead (0: the causal grounding), to compare.
 
     python scripts/live_simulate.py [--lookahead 0.25] [--songs A.ogg B.ogg] [--json]
+        [--recipe tm2d-small --model-lookahead 0.5 --seconds 30]
 """
 
 from __future__ import annotations
@@ -21,7 +22,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import live as bench  # noqa: E402  benchmarks/live.py: samples, compare
 
 
-def simulate(composer, song: Path, lookahead: float) -> tuple[dict, list[dict]]:
+def simulate(composer, song: Path, lookahead: float, model_lookahead: float | None = None,
+             seconds: float | None = None) -> tuple[dict, list[dict]]:
     """A summary and frames as ``bench.live`` gives them, from the pipeline run without real time."""
     from dance_core.live.beat_lock import BeatClock
     from dance_core.live.features import LiveFeatures
@@ -29,10 +31,11 @@ def simulate(composer, song: Path, lookahead: float) -> tuple[dict, list[dict]]:
     from dance_core.live.pose import LivePoses, PoseDecoder
     from dance_core.live.session import frame_message
 
-    fps, y = composer.recipe.fps, bench.samples(song)
+    fps, y = composer.recipe.fps, bench.samples(song, seconds)
     trackers = frozenset(e.name for e in composer.registry.entries("feature") if e.info.get("beats"))
     features = LiveFeatures(composer.stack, composer.checkpoint, bench.RATE, trackers)
-    generator = LiveGenerator(composer.model, composer.recipe, composer.seed(), composer.device)
+    generator = LiveGenerator(composer.model, composer.recipe, composer.seed(), composer.device,
+                              None if model_lookahead is None else int(round(model_lookahead * fps)))
     clock = BeatClock(fps)
     poses = LivePoses(PoseDecoder(composer.checkpoint, composer.registry, fps), composer.recipe.compose.ground,
                       clock, lookahead)
@@ -64,10 +67,16 @@ def main() -> None:
     parser.add_argument("--songs", nargs="+", type=Path,
                         default=[bench.AUDIO / "vibe_ace.ogg", bench.AUDIO / "lets_go_fishin.ogg"])
     parser.add_argument("--lookahead", type=float, default=0.25, help="the grounding's look-ahead (s; 0: causal)")
+    parser.add_argument("--recipe", default="default", help="the recipe danced (default: default)")
+    parser.add_argument("--model-lookahead", type=float,
+                        help="dance live --lookahead: seconds of music a song-level model waits for (tm2d-small)")
+    parser.add_argument("--seconds", type=float, help="each song's first seconds only")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
-    bench.compare(args.songs, lambda composer, song: simulate(composer, song, args.lookahead), args.json,
-                  {"simulated": True, "lookahead": args.lookahead})
+    bench.compare(args.songs, lambda composer, song: simulate(composer, song, args.lookahead, args.model_lookahead,
+                                                              args.seconds),
+                  args.json, {"simulated": True, "lookahead": args.lookahead, "recipe": args.recipe,
+                              "model_lookahead": args.model_lookahead}, args.recipe, args.seconds)
 
 
 if __name__ == "__main__":

@@ -46,8 +46,8 @@ def add_parser(subparsers) -> None:
                    help="text commands while dancing, one a line (now: TEXT, START-END: TEXT): - (standard input, "
                         "unless it carries the audio) or tcp://127.0.0.1:PORT (answers ok/error per line)")
     p.add_argument("--lookahead", type=bounded_number(float, 0.0, 60.0), metavar="S",
-                   help="seconds of music a song-level model (tm2d-small) waits for past a token (default: its "
-                        "own, about 0.5 s; its whole reach, 6.4 s, gives dance compose's dance)")
+                   help="seconds of music a song-level model (tm2d-small) waits for past a token (default: the "
+                        "model's own, 0 for tm2d-small; its whole reach, 6.4 s, gives dance compose's dance)")
     p.add_argument("--open", action="store_true", help="open the live page of the ws:// output in a browser")
     p.add_argument("--json", action="store_true",
                    help="print a JSON summary at the end: latency distribution, drops (on stderr when --output -)")
