@@ -216,6 +216,7 @@ def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None, r
         lat = summary["latency_ms"]
         row = {"song": song.name, "seconds": summary["music_seconds"], **(extra or {}),
                "frames": summary["frames"], "dropped": summary["dropped_frames"], "latency_ms": lat,
+               "latency_ms_step_first": summary.get("latency_ms_step_first"),
                "latency_ms_by_minute": summary["latency_ms_by_minute"],
                "music_delay_s": summary["music_delay_s"], "beat_lock": summary.get("beat_lock"),
                "grounding_lookahead_s": summary.get("grounding_lookahead_s"), "load_avg": summary["load_avg"],

@@ -173,3 +173,4 @@ def test_dance_live_follows_text_spans_and_commands_and_a_bad_command_is_one_lin
     assert texts[1]["command"] == "now: a person jumps" and texts[1]["end"] - texts[1]["start"] == 4.0
     assert [t["error"] is not None for t in texts[2:]] == [True, True] and len(texts) == 4
     assert summary["lookahead_s"]["model"] == pytest.approx(39 / 30, abs=1e-3)
+    assert summary["latency_ms_step_first"]["p50"] > 0  # the first frame of each token
