@@ -174,3 +174,27 @@ def test_dance_live_follows_text_spans_and_commands_and_a_bad_command_is_one_lin
     assert [t["error"] is not None for t in texts[2:]] == [True, True] and len(texts) == 4
     assert summary["lookahead_s"]["model"] == pytest.approx(39 / 30, abs=1e-3)
     assert summary["latency_ms_step_first"]["p50"] > 0  # the first frame of each token
+
+
+def test_falling_behind_skips_whole_tokens_and_the_dance_goes_on(composer, song_path):
+    from dance_core.live.generator import LiveGenerator
+
+    song = composer.song(song_path)
+    gen = LiveGenerator(composer.model, composer.recipe, composer.seed(), composer.device)
+    head = 100
+    gen.add({n: v[:head] for n, v in song.streams.items()})
+    first = gen.step()
+    behind = gen.ready()
+    assert len(first) == 8 and behind == 8 * ((head // 8 - 4) - 1)  # tokens whose 4 next ones have their music
+    gen.skip(behind - 1)  # the session keeps the newest: all but the last token's frames
+    assert gen.t == 8 + 8 * ((behind - 1) // 8) and gen.ready() == behind - (gen.t - 8)
+    tokens = gen.stream.state.tokens[0]
+    # the first step sampled tokens 0-4 (its own and the 4 decoded with it); the skipped ones after hold token 4
+    assert len(tokens) == gen.t // 8 > 5 and bool((tokens[5:] == tokens[4]).all())
+    gen.add({n: v[head:] for n, v in song.streams.items()})
+    gen.end()
+    rest = []
+    while gen.ready():
+        rest.append(gen.step())
+    rest = np.concatenate(rest)
+    assert len(rest) == song.n_frames - (gen.t - len(rest)) and gen.t == song.n_frames and np.isfinite(rest).all()

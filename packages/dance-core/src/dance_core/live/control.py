@@ -17,6 +17,7 @@ from collections.abc import Callable
 from typing import Protocol
 
 from dance_core.errors import DataError
+from dance_core.live.sinks import listen
 from dance_core.live.texts import MAX_COMMAND
 
 #: clients a control socket serves at once
@@ -78,14 +79,7 @@ class TcpControl:
             raise DataError(f"--control tcp://{host}:{port}: listens on the loopback interface only "
                             "(127.0.0.1, localhost or ::1)")
         family = socket.AF_INET6 if host == "::1" else socket.AF_INET
-        self.server = socket.socket(family, socket.SOCK_STREAM)
-        try:
-            self.server.bind((host, port))
-        except OSError as exc:
-            self.server.close()
-            why = "the port is in use" if exc.errno in (98, 48, 10048) else (exc.strerror or str(exc))
-            raise DataError(f"--control tcp://{host}:{port}: cannot listen: {why}") from None
-        self.server.listen(MAX_CLIENTS)
+        self.server = listen(host, port, f"--control tcp://{host}:{port}", family, MAX_CLIENTS)
         self.host, self.port = host, self.server.getsockname()[1]
         self.name = f"tcp://{host}:{self.port}"
         self.clients = threading.Semaphore(MAX_CLIENTS)

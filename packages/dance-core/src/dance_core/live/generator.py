@@ -41,9 +41,11 @@ class LiveGenerator:
             hook = getattr(head, "live_stream", None)
             self.stream = hook(model.encoder, lookahead, self.generator, self.temperature) if hook else None
             if self.stream is None:
-                raise DataError(f"live: the encoder ({type(model.encoder).__name__}) reads the whole song at once; "
-                                "it cannot dance live (windowed encoders can: Transflower, MoGlow, window-mlp; and "
-                                "tm2d-audio with a radius)")
+                why = "reads the whole song at once" if hook else \
+                    f"is song-level and the head ({type(head).__name__}) has no live form"
+                raise DataError(f"live: the encoder ({type(model.encoder).__name__}) {why}; it cannot dance live "
+                                "(windowed encoders can: Transflower, MoGlow, window-mlp; and tm2d-audio with a "
+                                "radius)")
             self.lookahead = self.stream.lookahead
             return
         self.lookahead = w.cond_future  # frames of music past a frame's own that it waits for

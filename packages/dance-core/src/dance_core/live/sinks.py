@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import json
 import queue
+import socket
 import sys
 import threading
 from typing import Any, BinaryIO
@@ -104,6 +105,19 @@ class JsonLinesSink(Sink):
     def _line(self, text: str) -> None:
         self.stream.write(text.encode() + b"\n")
         self.stream.flush()
+
+
+def listen(host: str, port: int, where: str, family: int = socket.AF_INET, backlog: int = 8) -> socket.socket:
+    """A TCP socket listening on ``host:port``; one line naming ``where`` (the option) when it cannot."""
+    server = socket.socket(family, socket.SOCK_STREAM)
+    try:
+        server.bind((host, port))
+    except OSError as exc:
+        server.close()
+        why = "the port is in use" if exc.errno in (98, 48, 10048) else (exc.strerror or str(exc))
+        raise DataError(f"{where}: cannot listen: {why}") from None
+    server.listen(backlog)
+    return server
 
 
 def open_sinks(specs: list[str], page_title: str = "dance live") -> list[Sink]:

@@ -18,8 +18,7 @@ import struct
 import threading
 from importlib import resources
 
-from dance_core.errors import DataError
-from dance_core.live.sinks import QUEUE, Sink, frame_json
+from dance_core.live.sinks import QUEUE, Sink, frame_json, listen
 
 GUID = "258EAFA5-E914-47DA-95CA-C5AB0DC85B11"
 
@@ -89,14 +88,7 @@ class WebSocketSink(Sink):
     def __init__(self, host: str, port: int, title: str = "dance live"):
         super().__init__()
         self.host, self.port, self.title = host, port, title
-        self.server = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        try:
-            self.server.bind((host, port))
-        except OSError as exc:
-            self.server.close()
-            why = "the port is in use" if exc.errno in (98, 48, 10048) else (exc.strerror or str(exc))
-            raise DataError(f"--output ws://{host}:{port}: cannot listen: {why}") from None
-        self.server.listen(8)
+        self.server = listen(host, port, f"--output ws://{host}:{port}")
         self.port = self.server.getsockname()[1]
         self.clients: list[Client] = []
         self.lock = threading.Lock()
