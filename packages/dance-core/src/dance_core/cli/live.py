@@ -47,7 +47,8 @@ def add_parser(subparsers) -> None:
                         "unless it carries the audio) or tcp://127.0.0.1:PORT (answers ok/error per line)")
     p.add_argument("--lookahead", type=bounded_number(float, 0.0, 60.0), metavar="S",
                    help="seconds of music a song-level model (tm2d-small) waits for past a token (default: the "
-                        "model's own, 0 for tm2d-small; its whole reach, 6.4 s, gives dance compose's dance)")
+                        "model's own, 0 for tm2d-small; its whole reach, 6.4 s, gives compose's tokens for the same "
+                        "features)")
     p.add_argument("--open", action="store_true", help="open the live page of the ws:// output in a browser")
     p.add_argument("--json", action="store_true",
                    help="print a JSON summary at the end: latency distribution, drops (on stderr when --output -)")
