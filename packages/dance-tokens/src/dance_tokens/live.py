@@ -9,7 +9,8 @@ reach, with the song's own positions), and gives token ``j``'s ``t`` frames once
 ``j + decode_ahead`` are sampled, decoding the tokens around it (the VQ-VAE's receptive field).
 
 With the whole reach (``ahead = prior.radius + radius · layers``, ``decode_ahead`` the decoder's future
-field) its frames are ``dance compose``'s exactly (tested); with less the encoder and prior see the
+field), fed ``dance compose``'s features, its tokens are compose's and its frames equal compose's within
+1e-4 (the decoder's convolutions over a window round differently; tested); with less the encoder and prior see the
 music window cut at what has arrived (as at the end of a training segment or of a song), and a token's
 frames are decoded without the tokens after the look-ahead. Defaults: :data:`AHEAD` and
 :data:`DECODE_AHEAD` (docs/live.md has the figures).
