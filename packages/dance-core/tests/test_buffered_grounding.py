@@ -32,9 +32,9 @@ def stepper(seconds=8.0, lift=0.1):
     return Motion(dance24(), FPS, root, expmap_to_quat(rot))
 
 
-def buffered(motion, lookahead):
+def buffered(motion, lookahead, **options):
     """The motion grounded by ``BufferedGrounding``, and the frame index each output came back at."""
-    g = BufferedGrounding(motion.skeleton, motion.fps, lookahead)
+    g = BufferedGrounding(motion.skeleton, motion.fps, lookahead, **options)
     out, arrived = [], []
     for i in range(motion.n_frames):
         frame = g.push(motion.root[i], motion.rotations[i])
@@ -99,15 +99,44 @@ def test_a_skeleton_without_feet_passes_through_after_the_delay():
 def test_the_height_correction_is_as_smooth_as_offline_and_keeps_every_foot_above_the_floor():
     """A frame's height correction is the mean of those the buffer found for it while it was in the look-ahead:
     the last one alone jumps with what the buffer's end shows (the root's vertical jerk 1.46x offline
-    grounding's here; the mean 0.93x), and each keeps every foot above the floor, so the mean does."""
+    grounding's here; the mean 0.93x), and each keeps every foot above the floor, so the mean does. The knee-keeping
+    drop on top (the pins of a sliding stepper stretch its legs) stays about as smooth as offline's."""
     m = stepper()
     t = np.arange(m.n_frames) / FPS
     m.root[:, 1] += 0.04 * np.sin(2 * np.pi * t / 1.7)  # the body bobs: the correction has to follow
     offline, _ = ground(m)
-    out, _, _ = buffered(m, 0.25)
+    out, _, _ = buffered(m, 0.25, drop_smoothing=None)
 
     def jerk(y):
         return np.abs(np.diff(y, 3)).mean() * FPS**3
 
     assert jerk(out.root[:, 1]) < 1.1 * jerk(offline.root[: out.n_frames, 1])
     assert soles(out).min() > -1e-6
+    dropped, _, _ = buffered(m, 0.25)
+    assert not np.allclose(dropped.root[:, 1], out.root[:, 1])
+    assert jerk(dropped.root[:, 1]) < 1.25 * jerk(offline.root[: out.n_frames, 1])
+    assert soles(dropped).min() > -1e-6
+
+
+def test_pinned_legs_keep_their_knees_bend_live_with_every_foot_on_or_above_the_floor():
+    """The plié of the offline test slides 20 cm with its feet: pinned frame by frame, the legs would stretch
+    (10 degrees straighter without the drop: live pins stay where each span began); the pelvis comes down through
+    the drop's filters instead, the knees keep their bend within 2.5 degrees, and no foot goes below the floor."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_grounding import dancer, knee_flexion
+
+    m = dancer(seconds=4.0)
+    bend = np.zeros((m.n_frames, 24, 3))
+    bend[:, [1, 2], 0], bend[:, [4, 5], 0], bend[:, [7, 8], 0] = -0.4, 0.8, -0.4
+    m.rotations[:, [1, 2, 4, 5, 7, 8]] = expmap_to_quat(bend)[:, [1, 2, 4, 5, 7, 8]]
+    t = np.arange(m.n_frames) / FPS
+    m.root[:, 0] += 0.20 * np.clip(t - 1.5, 0, 1) ** 2 * (3 - 2 * np.clip(t - 1.5, 0, 1))
+    before = knee_flexion(m)
+    kept, _, _ = buffered(m, 0.1)
+    assert knee_flexion(kept).min() > before.min() - 2.5
+    assert soles(kept).min() > -1e-6
+    control, _, _ = buffered(m, 0.1, drop_smoothing=None)  # the same grounding without the drop
+    assert knee_flexion(control).min() < before.min() - 2.0

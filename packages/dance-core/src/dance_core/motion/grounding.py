@@ -347,16 +347,12 @@ def pinning(skeleton: Skeleton, positions: np.ndarray, feet: tuple[int, int, int
 MAX_DROP = 0.06
 
 
-def knee_drop(skeleton: Skeleton, positions: np.ndarray, feet: tuple[int, int, int, int], weight: np.ndarray,
-              pinned: np.ndarray, soles: np.ndarray, fps: float, options: GroundingOptions | None = None
-              ) -> np.ndarray:
-    """``(T,)`` how far to lower the root so that each leg moved towards ``pinned (T, 2, 3)`` by ``weight
-    (T, 2)`` keeps the hip-to-ankle distance, and so the knee bend, it had: a foot that slid along with the
-    body, pinned, would otherwise stretch its leg (nearly straight knees at the ends of every contact, 5°
-    straighter on average over a contact). At most ``MAX_DROP``; a foot not pinned, or fading in or out, is
-    not taken below the floor (``soles (T, 2)``: heights above it); smoothed as the height correction is
-    (Gaussian, ``options.smoothing``; the cap eroded first, so that the smoothed drop stays under it).
-    Positions and the result in skeleton units."""
+def drop_needed(skeleton: Skeleton, positions: np.ndarray, feet: tuple[int, int, int, int], weight: np.ndarray,
+                pinned: np.ndarray, soles: np.ndarray, options: GroundingOptions | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """``(need (T,), cap (T,))`` of :func:`knee_drop` frame by frame, unsmoothed: how far the root must come
+    down so that each leg moved towards ``pinned`` by ``weight`` keeps its hip-to-ankle distance (at most
+    ``MAX_DROP``), and how far it may (a foot not pinned, or fading in or out, stays above the floor)."""
     options = options or GroundingOptions()
     unit = metres_per_unit(skeleton, feet, options)
     need, cap = np.zeros(len(positions)), np.full(len(positions), MAX_DROP / unit)
@@ -374,7 +370,21 @@ def knee_drop(skeleton: Skeleton, positions: np.ndarray, feet: tuple[int, int, i
         above = np.sqrt(np.maximum(had * had - across * across, 0.0))  # how high the hip may stay
         # a pin farther across than the leg was long cannot keep the bend at any height: left to the IK
         need = np.maximum(need, np.where((w > 0) & (across < had), hips[:, 1] - target[:, 1] - above, 0.0))
-    need = np.clip(need, 0.0, MAX_DROP / unit)
+    return np.clip(need, 0.0, MAX_DROP / unit), cap
+
+
+def knee_drop(skeleton: Skeleton, positions: np.ndarray, feet: tuple[int, int, int, int], weight: np.ndarray,
+              pinned: np.ndarray, soles: np.ndarray, fps: float, options: GroundingOptions | None = None
+              ) -> np.ndarray:
+    """``(T,)`` how far to lower the root so that each leg moved towards ``pinned (T, 2, 3)`` by ``weight
+    (T, 2)`` keeps the hip-to-ankle distance, and so the knee bend, it had: a foot that slid along with the
+    body, pinned, would otherwise stretch its leg (nearly straight knees at the ends of every contact, 5°
+    straighter on average over a contact). At most ``MAX_DROP``; a foot not pinned, or fading in or out, is
+    not taken below the floor (``soles (T, 2)``: heights above it); smoothed as the height correction is
+    (Gaussian, ``options.smoothing``; the cap eroded first, so that the smoothed drop stays under it).
+    Positions and the result in skeleton units. Frame by frame, unsmoothed: :func:`drop_needed`."""
+    options = options or GroundingOptions()
+    need, cap = drop_needed(skeleton, positions, feet, weight, pinned, soles, options)
     if not need.any():
         return need
     sigma = options.smoothing * fps
