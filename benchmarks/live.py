@@ -13,7 +13,10 @@ at ``--speed`` times real time (1 = as a player would), and the JSON Lines frame
   ``dance_core.api.Composer``), on the offline beat tracker's beats, over the whole song and after its
   first 5 s;
 * **grounding and motion** (``dance_core.evaluation.quality_scores`` on the soles): frames floating (both
-  soles over 5 cm up), foot skating, mean joint speed and jerk, live against offline.
+  soles over 5 cm up), foot skating, mean joint speed and jerk, live against offline;
+* **realism** (``benchmarks/realism.py``'s measure): the Fréchet distance of the dance's 4-s window statistics
+  to the 7 held-out real CMU takes, in units of the real scale (the takes' halves against each other), the
+  statistics whose median lies inside the takes' 10-90 % range, and the knees' bend, live against offline.
 
 ``--minutes M`` instead plays one long song, the fixture songs one after another until ``M`` minutes, and
 reports the latency per minute (does it grow?); no offline dance.
@@ -147,6 +150,35 @@ def floor_and_motion(motion, beats: np.ndarray) -> dict:
     return {k: q[k] for k in ("float", "below_floor", "skating", "speed", "jerk")}
 
 
+class Realism:
+    """The held-out real takes' window statistics, loaded on first use, to score a dance's realism against."""
+
+    def __init__(self):
+        self.reference = self.scale = None
+
+    def __call__(self, motion) -> dict:
+        """``distance`` (× the real scale), ``inside`` (statistics in the real 10-90 % range) and ``knee_bend``
+        (median, degrees) of a skeletal motion."""
+        import realism
+
+        from dance_core.evaluation import STATISTICS, realism_distance
+
+        if self.reference is None:
+            takes = realism.real_takes(realism.MOCAP)
+            held = [takes[n] for n in realism.HELD_OUT]
+            self.reference = np.concatenate([realism.stats(m) for m in held])
+            first, second = (np.concatenate([realism.stats(realism.halves(m)[k]) for m in held]) for k in (0, 1))
+            self.scale = (realism_distance(first, second) + realism_distance(second, first)) / 2
+        windows = realism.stats(motion.resample(realism.FPS))
+        if len(windows) < 2:
+            return {"distance": float("nan"), "inside": 0, "knee_bend": float("nan")}
+        lo, hi = np.percentile(self.reference, [10, 90], axis=0)
+        median = np.median(windows, axis=0)
+        return {"distance": realism_distance(windows, self.reference) / self.scale,
+                "inside": int(((median >= lo) & (median <= hi)).sum()),
+                "knee_bend": float(median[STATISTICS.index("knee_bend")])}
+
+
 def minutes_table(summary: dict) -> str:
     """The latency per minute of music, one line."""
     return "; ".join(f"min {i + 1}: p50 {m['p50']:.1f} p95 {m['p95']:.1f} max {m['max']:.0f}"
@@ -200,7 +232,7 @@ def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None, r
     composer = Composer(load_recipe(recipe))
     skeleton = composer.checkpoint.motion.skeleton
     names = skeleton.names
-    rows = []
+    rows, real = [], Realism()
     for song in songs:
         summary, frames = play(composer, song)
         fps = summary["fps"]
@@ -225,10 +257,12 @@ def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None, r
                "offline_after_5s": locking(off_pos, fps, names, beats, 5.0),
                "live_floor_motion": floor_and_motion(live_motion, beats),
                "offline_floor_motion": floor_and_motion(off_motion, beats),
+               "live_realism": real(live_motion), "offline_realism": real(off_motion),
                "offline_meta": {k: offline.meta.get(k) for k in ("grounding", "beat_align")}}
         rows.append(row)
         if not as_json:
             fl, fo = row["live_floor_motion"], row["offline_floor_motion"]
+            rl, ro = row["live_realism"], row["offline_realism"]
             timing = (f"{row['frames']} frames, {row['dropped']} dropped, latency p50 {lat['p50']:.1f} p95 "
                       f"{lat['p95']:.1f} max {lat['max']:.1f} ms" if lat else f"{row['frames']} frames, simulated")
             print(f"{song.name}: {timing}; locking live {row['live']['locking']:.2f} "
@@ -237,6 +271,8 @@ def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None, r
                   f"offline {row['offline_after_5s']['locking']:.2f}; float live {fl['float']:.3f} offline "
                   f"{fo['float']:.3f}, skating {fl['skating']:.3f} / {fo['skating']:.3f} m/s, speed "
                   f"{fl['speed']:.2f} / {fo['speed']:.2f} m/s, jerk {fl['jerk']:.0f} / {fo['jerk']:.0f} m/s^3; "
+                  f"realism {rl['distance']:.2f} / {ro['distance']:.2f} x the real scale, {rl['inside']} / "
+                  f"{ro['inside']} statistics in range, knees {rl['knee_bend']:.1f} / {ro['knee_bend']:.1f} deg; "
                   f"lag {row['beat_lock'] and row['beat_lock'].get('lag_s')}; load {row['load_avg']}",
                   flush=True)
     if as_json:
