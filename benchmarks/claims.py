@@ -21,7 +21,10 @@ first 2 s (the rest-pose seed) cut from every dance before scoring. Parts:
 Every run is cached as JSON under ``--cache``: a re-run skips what finished. ``--quick`` is the smoke
 path (one seed, few steps, short songs; its own cache). ``--steps N [--seeds K]`` is a plateau study: the
 same protocol with a budget of ``N`` steps, so the plateau rule rather than the budget ends each run (its
-own cache; each result's ``best_step`` and ``stopped`` say which ended it). ``--readme`` writes the section
+own cache; each result's ``best_step`` and ``stopped`` say which ended it). The Transflower experiment always
+trains to ``Protocol.tf_steps`` (2000: at 1000, 4 of its 20 runs were still improving at the budget), with its
+results in the cache folder named for that budget; the verdict lines say how many runs the plateau rule
+ended. ``--readme`` writes the section
 between the ``claims`` markers of benchmarks/README.md (the full run only), quoting TM2D's verdict lines
 from their own sections (benchmarks/claims_tm2d.py: late fusion against slerp; claims_tm2d_music.py: the
 music-only quality of the text-trained model). TM2D's fusion-weight experiment is benchmarks/text_spans.py.
@@ -120,9 +123,11 @@ def claims_table(table: dict, tf: dict | None, cur: dict | None, protocol: Proto
              gt_row("Shuffled music (real dances, another song's beats)", table["shuffled"])]
     if tf and tf["multimodal"]["flow"] and tf["multimodal"]["regression"]:
         mm = tf["multimodal"]
-        note = f"T per seed {claims_transflower.chosen(mm['flow'])} (chosen on the selection songs)"
+        note = (f"T per seed {claims_transflower.chosen(mm['flow'])} (chosen on the selection songs); budget "
+                f"{protocol.tf_steps} steps, the other rows' {protocol.steps}")
         lines.append(row("Transflower (transflower-small, flow head)", mm["flow"], note))
-        lines.append(row("AI Choreographer (transflower-small's encoder, regression head)", mm["regression"]))
+        lines.append(row("AI Choreographer (transflower-small's encoder, regression head)", mm["regression"],
+                         note=f"budget {protocol.tf_steps} steps"))
     for key, label, _, _ in OTHERS:
         if table.get(key):
             lines.append(row(label, table[key]))
@@ -167,7 +172,11 @@ def main() -> None:
                 else Protocol(cache=cache))
     if args.steps or args.seeds:
         protocol = dataclasses.replace(protocol, steps=args.steps or protocol.steps, dr_steps=args.steps or
-                                       protocol.dr_steps, seeds=args.seeds or protocol.seeds)
+                                       protocol.dr_steps, tf_steps=args.steps or protocol.tf_steps,
+                                       seeds=args.seeds or protocol.seeds)
+    # the Transflower experiment trains to its own budget (the plateau within reach), in its own cache
+    tf_protocol = protocol if protocol.tf_steps == protocol.steps else dataclasses.replace(
+        protocol, steps=protocol.tf_steps, cache=cache.with_name(f"{cache.name}-steps{protocol.tf_steps}"))
     study = args.steps or args.seeds
     reduced = (" (reduced run: --reduced)" if args.reduced else " (smoke run: --quick)" if args.quick else
                f" (plateau study: --steps {protocol.steps}, {protocol.seeds} seeds)" if study else "")
@@ -175,7 +184,7 @@ def main() -> None:
     want = set(args.only or ["transflower", "curriculum", "table"])
     claims_protocol.CACHED_ONLY = args.cached_only
     short = TestSet(protocol, protocol.test_seconds, protocol.test_songs)
-    tf = claims_transflower.run(protocol) if "transflower" in want else None
+    tf = claims_transflower.run(tf_protocol) if "transflower" in want else None
     cur = claims_curriculum.run(protocol, short) if "curriculum" in want else None
     table = run_table(protocol, args.only, short)
     total = time.perf_counter() - started
@@ -193,19 +202,21 @@ def main() -> None:
         f"{os.cpu_count()} cores shared with other engineers' jobs, load average {load:.1f} at the end, 1 torch "
         f"thread, torch {torch.__version__}. Protocol: {protocol.seeds} seeds × {protocol.samples} samples per "
         f"test song, {protocol.test_songs} test songs of {protocol.test_seconds:g} s, budget {protocol.steps} "
-        f"steps (validation every {protocol.val_every}, patience {protocol.patience}), batch {protocol.batch_size}.",
+        f"steps (the Transflower experiment {tf_protocol.steps}, its results in {tf_protocol.cache.name}; "
+        f"DanceRevolution's schedules {protocol.dr_steps}; validation every {protocol.val_every}, patience "
+        f"{protocol.patience}), batch {protocol.batch_size}.",
         "",
         *claims_table(table, tf, cur, protocol),
         "",
     ]
     if tf:
-        lines += ["Transflower experiment (flow vs regression head, same encoder):", "",
-                  *claims_transflower.table(tf, protocol), ""]
+        lines += [f"Transflower experiment (flow vs regression head, same encoder; budget {tf_protocol.steps} steps):",
+                  "", *claims_transflower.table(tf, tf_protocol), ""]
     if cur:
         lines += [f"DanceRevolution experiment ({protocol.long_songs} held-out songs of {protocol.long_seconds:g} s):",
                   "", *claims_curriculum.table(cur), ""]
     if tf:
-        lines.append(claims_transflower.verdict(tf, protocol, reduced))
+        lines.append(claims_transflower.verdict(tf, tf_protocol, reduced))
     if cur:
         lines.append(claims_curriculum.verdict(cur, protocol, reduced))
     tm2d = verdict_line("- **TM2D** (late fusion")  # claims_tm2d.py's verdict; its section has the tables

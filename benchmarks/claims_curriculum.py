@@ -26,6 +26,7 @@ from claims_protocol import (
     decide,
     difference,
     generate,
+    plateau_ends,
     reference_clips,
     spread,
     train_to_plateau,
@@ -174,7 +175,8 @@ def verdict(result: dict, protocol: Protocol, reduced: str = "") -> str:
     numbers = (f"over {protocol.long_seconds / 60:.3g}-min songs, teacher forcing PFF_rel {tf_rel:.3g} %, "
                f"last-minute FID_k {tf_fid:.3g}; "
                "gains over teacher forcing (positive: the schedule is better) " + "; ".join(parts)
-               + f" ({seeds} seeds × {protocol.samples} samples)")
+               + f" ({seeds} seeds × {protocol.samples} samples; "
+               + plateau_ends([r for runs in result.values() for r in runs], protocol.dr_steps) + ")")
     frozen = any(v and v > 0 for runs in result.values() for v in whole(runs, "PFF_rel"))
     if not frozen:
         word = "inconclusive (no model froze under any schedule, so curriculum has nothing to prevent here)"

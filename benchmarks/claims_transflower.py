@@ -22,6 +22,7 @@ from claims_protocol import (
     ci,
     decide,
     difference,
+    plateau_ends,
     pm,
     reference_clips,
     scored,
@@ -127,7 +128,9 @@ def verdict(result: dict, protocol: Protocol, reduced: str = "") -> str:
                f"{pm(values(result['control']['flow'], 'FMD'))} vs regression "
                f"{pm(values(result['control']['regression'], 'FMD'))}; intervals: "
                + "; ".join(f"{k} {ci(v)}" for k, v in parts.items())
-               + f"; {seeds} seeds × {protocol.samples} samples, T chosen on selection songs ({chosen(mm['flow'])})")
+               + f"; {seeds} seeds × {protocol.samples} samples, T chosen on selection songs ({chosen(mm['flow'])}); "
+               + plateau_ends([r for part in result.values() for h in ("flow", "regression") for r in part[h]],
+                              protocol.steps))
     return (f"- **Transflower** (a flow head beats a regression head of the same encoder on FMD and diversity on "
             f"the multimodal set; the gap closes on the homogeneous control): {numbers}: **{word}**{reduced}. "
             f"Rule: {RULE}.")
