@@ -209,3 +209,15 @@ def test_curriculum_rule_on_bootstrap_intervals(claims):
             for m in x["minutes"]:
                 m["PFF_rel"] = 0.0
     assert "inconclusive (no model froze" in curriculum.verdict(still, protocol)
+
+
+def test_verdicts_say_how_many_runs_the_plateau_rule_ended(claims):
+    protocol_mod, curriculum = claims
+    runs = [{"stopped": 950}, {"stopped": 1000}, {"stopped": 425}, None]
+    assert protocol_mod.plateau_ends(runs, 1000) == "2 of 3 runs ended by the plateau rule within the 1000-step budget"
+    protocol = protocol_mod.Protocol()
+    assert protocol.tf_steps > protocol.steps  # the Transflower experiment trains to its plateau, not 200 steps
+    labels = [label for label, _ in curriculum.schedules()]
+    capped = {label: [{"stopped": protocol.dr_steps, "minutes": [{"PFF_rel": 0.0, "FID_k": 50.0 + j}]}
+                      for j in range(5)] for label in labels}
+    assert f"0 of {5 * len(labels)} runs ended by the plateau rule" in curriculum.verdict(capped, protocol)
