@@ -30,10 +30,12 @@ Reply = Callable[[str], None] | None
 class Handler(Protocol):
     """Where commands go: ``command(line, reply)``, and ``refuse(message, reply)`` for input that is no command."""
 
-    def command(self, line: str, reply: Reply) -> None:  # noqa: D102
+    def command(self, line: str, reply: Reply) -> None:
+        """Act on one command line; answer through ``reply`` when the input has a way back."""
         ...
 
-    def refuse(self, message: str, reply: Reply) -> None:  # noqa: D102
+    def refuse(self, message: str, reply: Reply) -> None:
+        """Report ``message`` (input that is no command) once, through ``reply`` or the session's notes."""
         ...
 
 
