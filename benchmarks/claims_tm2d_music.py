@@ -188,8 +188,10 @@ def report(result: dict, args, wall: float, load: str) -> tuple[str, str]:
                          f"{', '.join(s['outside']) or '–'} | {s['locking']:.2f} | {s['control']:.2f} | "
                          f"{s['speed']:.2f} | {s['jerk']:.2f} | {trained(s)} |")
     for arm in ARMS:
-        col = {k: [s[k] for s in scores[arm]] for k in ("ratio", "inside", "locking", "control", "speed", "jerk")}
-        lines.append(f"| **{arm}, mean ± sd** | {done[arm]} seeds | {pm(col['ratio'])}x | {pm(col['inside'])} | | "
+        col = {k: [s[k] for s in scores[arm]] for k in ("distance", "ratio", "inside", "locking", "control", "speed",
+                                                        "jerk")}
+        lines.append(f"| **{arm}, mean ± sd** | {done[arm]} seeds | {pm(col['distance'])} ({pm(col['ratio'])}) | "
+                     f"{pm(col['inside'])} | | "
                      f"{pm(col['locking'])} | {pm(col['control'])} | {pm(col['speed'])} | {pm(col['jerk'])} | |")
     lines += ["", f"Text − music, 95 % bootstrap interval over seeds: realism distance (× real scale) "
               f"{ci(j['distance'])} ({j['readings']['distance']} the +{DISTANCE_MARGIN:g} margin); body locking "
