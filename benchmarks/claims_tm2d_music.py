@@ -171,9 +171,11 @@ def report(result: dict, args, wall: float, load: str) -> tuple[str, str]:
     cmd = "OMP_NUM_THREADS=1 nice -n 15 .venv/bin/python benchmarks/claims_tm2d_music.py --readme"
     if args.seeds != 5 or args.steps != 7000:
         cmd += f" --seeds {args.seeds} --steps {args.steps}"
-    lines = [f"Command: `{cmd}`; {args.date}; {platform.machine()}, {os.cpu_count()} cores, load average {load} "
-             f"(another niced benchmark on the other core), 1 torch thread, torch {torch.__version__}; "
-             f"{wall / 60:.0f} min in this invocation (each run's training time in the table). Runs: "
+    this = (f"{wall / 60:.0f} min in this invocation, which trained {result['trained']} runs" if result["trained"]
+            else "this invocation trained nothing (every run was scored before)")
+    lines = [f"Command: `{cmd}`; {args.date}; {platform.machine()}, {os.cpu_count()} cores, load average {load} at "
+             f"the end, 1 torch thread, torch {torch.__version__}; {this} (each run's training time in the table). "
+             f"Runs: "
              f"{args.runs}/ARM-sSEED; VQ-VAE {args.vqvae.name} (weights and normalization statistics); prior stage "
              f"{args.steps} steps, batch 32, lr 5e-4; seeds finished: text {done['text']}, music {done['music']} of "
              f"{args.seeds}. Dances: {args.samples} per fixture song ({', '.join(result['songs'])}), first "
@@ -217,7 +219,7 @@ def run(args) -> dict:
     beats = {song.stem: song_beats(song) for song in songs}
     from dance_core import write_text
 
-    scores = {arm: [] for arm in ARMS}
+    scores, trained = {arm: [] for arm in ARMS}, 0
     for seed in range(args.seeds):
         for arm in ARMS:
             out = args.runs / f"{arm}-s{seed}"
@@ -226,6 +228,7 @@ def run(args) -> dict:
                 continue
             if not path.exists():
                 minutes = train(out, train_sets(arm, seed, args.steps, args.vqvae, args.mocap))
+                trained += minutes > 0
                 s = score_run(out / "model.safetensors", arm, real, songs, beats, args.samples, args.seconds)
                 source = out / "SOURCE"  # a run trained elsewhere with this recipe and seed, copied in
                 s |= {"seed": seed, "minutes": minutes,
@@ -236,7 +239,7 @@ def run(args) -> dict:
             print(f"{arm} seed {seed}: distance {s['distance']:.2f} ({s['ratio']:.2f}x), in range {s['inside']}/11, "
                   f"locking {s['locking']:.2f} (control {s['control']:.2f}), speed {s['speed']:.2f}, "
                   f"jerk {s['jerk']:.2f}; trained in {s['minutes']:.1f} min", flush=True)
-    return {"scores": scores, "scale": real["scale"], "songs": [s.stem for s in songs]}
+    return {"scores": scores, "scale": real["scale"], "songs": [s.stem for s in songs], "trained": trained}
 
 
 def main(argv: list[str] | None = None) -> int:
