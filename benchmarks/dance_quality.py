@@ -262,7 +262,7 @@ def reference_means(refs: list[tuple[str, Dance, np.ndarray]], fps: float, real:
 
 def targets(row: Row, ref: dict[str, float]) -> dict[str, bool | None]:
     """Which of the five targets a row meets (None where it cannot be judged)."""
-    from dance_core.evaluation.repetition import LOOP_BELOW
+    from dance_core.evaluation import LOOP_BELOW
 
     s = row.scores
     speed, jerk = s["speed"] / ref["speed"], s["jerk"] / ref["jerk"]

@@ -5,8 +5,9 @@ Y up) at any frame rate, and is registered as a ``metric`` component by core's p
 point of ``dance evaluate`` is :func:`dance_core.evaluation.report.evaluate`.
 
 ``__all__`` is the scoring library scripts may use (stable within a minor version, like ``dance_core``'s
-names), loaded on first use: the quality measures, canonical poses, the move detectors and the realism
-statistics (``sample_diversity`` is ``quality.diversity``: the submodule ``diversity`` has its name).
+names), loaded on first use: the quality measures, canonical poses, the move detectors, the realism
+statistics and the loop measure (``sample_diversity`` is ``quality.diversity``: the submodule
+``diversity`` has its name).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ _LAZY: dict[str, tuple[str, str]] = {
     "z_up_to_y_up": ("dance_core.evaluation.clips", "z_up_to_y_up"),
     **{n: ("dance_core.evaluation.realism", n)
        for n in ("STATISTICS", "window_statistics", "realism_distance", "body_locking")},
+    **{n: ("dance_core.evaluation.repetition", n) for n in ("self_repetition", "LOOP_BELOW")},
 }
 
 __all__ = list(_LAZY)
