@@ -2,8 +2,14 @@
 buffer give the offline grounding's frames where the buffer sees what offline does, each frame a fixed delay
 after it arrives, and a planted foot stays planted as the buffer slides."""
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_grounding import knee_flexion, sliding_plie  # noqa: E402
 
 from dance_core.motion.buffered_grounding import BufferedGrounding
 from dance_core.motion.grounding import GroundingOptions, find_feet, foot_contacts, foot_speeds, ground, soles
@@ -122,18 +128,7 @@ def test_pinned_legs_keep_their_knees_bend_live_with_every_foot_on_or_above_the_
     """The plié of the offline test slides 20 cm with its feet: pinned frame by frame, the legs would stretch
     (10 degrees straighter without the drop: live pins stay where each span began); the pelvis comes down through
     the drop's filters instead, the knees keep their bend within 2.5 degrees, and no foot goes below the floor."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).parent))
-    from test_grounding import dancer, knee_flexion
-
-    m = dancer(seconds=4.0)
-    bend = np.zeros((m.n_frames, 24, 3))
-    bend[:, [1, 2], 0], bend[:, [4, 5], 0], bend[:, [7, 8], 0] = -0.4, 0.8, -0.4
-    m.rotations[:, [1, 2, 4, 5, 7, 8]] = expmap_to_quat(bend)[:, [1, 2, 4, 5, 7, 8]]
-    t = np.arange(m.n_frames) / FPS
-    m.root[:, 0] += 0.20 * np.clip(t - 1.5, 0, 1) ** 2 * (3 - 2 * np.clip(t - 1.5, 0, 1))
+    m = sliding_plie(seconds=4.0, start=1.5)
     before = knee_flexion(m)
     kept, _, _ = buffered(m, 0.1)
     assert knee_flexion(kept).min() > before.min() - 2.5

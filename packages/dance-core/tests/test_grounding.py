@@ -334,18 +334,25 @@ def knee_flexion(motion):
     return np.mean(out, 0)
 
 
+def sliding_plie(seconds: float, start: float):
+    """The standing dancer in a plié (hips, knees and ankles bent), sliding 20 cm sideways with its feet over
+    the second after ``start``."""
+    m = dancer(seconds=seconds)
+    bend = np.zeros((m.n_frames, 24, 3))
+    bend[:, [1, 2], 0], bend[:, [4, 5], 0], bend[:, [7, 8], 0] = -0.4, 0.8, -0.4
+    m.rotations[:, [1, 2, 4, 5, 7, 8]] = expmap_to_quat(bend)[:, [1, 2, 4, 5, 7, 8]]
+    t = np.arange(m.n_frames) / FPS
+    m.root[:, 0] += 0.20 * np.clip(t - start, 0, 1) ** 2 * (3 - 2 * np.clip(t - start, 0, 1))
+    return m
+
+
 def test_pinned_legs_keep_their_knees_bend(monkeypatch):
     """A dancer in a plie slides 20 cm sideways with its feet: pinned, the feet would stretch the legs (the
     knees 2-3 degrees straighter); the pelvis comes down instead, so the knees keep their bend, the feet
     stay on the floor and the body above the legs keeps its pose around the root."""
     from dance_core.motion import grounding
 
-    m = dancer(seconds=3.0)
-    bend = np.zeros((m.n_frames, 24, 3))
-    bend[:, [1, 2], 0], bend[:, [4, 5], 0], bend[:, [7, 8], 0] = -0.4, 0.8, -0.4
-    m.rotations[:, [1, 2, 4, 5, 7, 8]] = expmap_to_quat(bend)[:, [1, 2, 4, 5, 7, 8]]
-    t = np.arange(m.n_frames) / FPS
-    m.root[:, 0] += 0.20 * np.clip(t - 1.0, 0, 1) ** 2 * (3 - 2 * np.clip(t - 1.0, 0, 1))
+    m = sliding_plie(seconds=3.0, start=1.0)
     before = knee_flexion(m)
     out, report = ground(m)
     assert report.contacts == (1, 1) and report.skating_after < 0.01 * report.skating_before
