@@ -46,7 +46,9 @@ class TrainContext:
     summarize); ``None`` behind windowed encoders. ``spans``: likewise, the batch's text spans aligned
     with them (a ``TextSpans`` table: each span, its frames, per frame the span in force and one row
     of features per span, such as TM2D's sentences); ``None`` behind windowed encoders or when the
-    caller has none.
+    caller has none. ``kinematics``: the joint positions ``(..., T, J, 3)`` of standardized motion
+    ``(..., T, D)``, differentiable (``dance_core.motion.torch_fk.RotationKinematics``), for a loss on
+    positions; ``None`` unless the motion is the ``rotations`` representation.
     """
 
     step: int
@@ -56,6 +58,7 @@ class TrainContext:
     generator: Any = None
     streams: dict[str, Any] | None = None
     spans: TextSpans | None = None
+    kinematics: Any = None
 
 
 @dataclass

@@ -26,6 +26,7 @@ from dance_core.data.prepare import PreparedData
 from dance_core.data.sampling import SegmentSampler
 from dance_core.errors import RecipeError, TrainingError
 from dance_core.model import ComposedModel, build_model
+from dance_core.motion.torch_fk import RotationKinematics
 from dance_core.progress import progress_bar
 from dance_core.protocols import TrainContext
 from dance_core.recipe.schema import Recipe, StageSpec
@@ -114,6 +115,7 @@ class Trainer:
                                   warm=self._warm_feature_cache, quiet=self.quiet)
         self.stats = self.data.stats
         self.motion_info = self.data.motion
+        self.kinematics = RotationKinematics.from_info(self.motion_info, self.stats.motion)
         motion_dim = self.motion_info.dim
         torch.manual_seed(recipe.seed)
         self.model = build_model(recipe, motion_dim, self.stack.dims()).to(self.device)
@@ -193,7 +195,8 @@ class Trainer:
         values = {n: float(f(step, epoch, self.total)) for n, f in self.schedules.items()}
         # the same step draws the same augmentation noise, however the run was resumed (each rank its own)
         generator = torch.Generator().manual_seed(_seed_for(self.recipe.seed, step, self.ranks.rank))
-        return TrainContext(step=step, epoch=epoch, stage=stage.name, values=values, generator=generator)
+        return TrainContext(step=step, epoch=epoch, stage=stage.name, values=values, generator=generator,
+                            kinematics=self.kinematics)
 
     def validate(self, step: int, stage: StageSpec) -> float | None:
         """Mean validation loss over fixed batches."""
