@@ -47,6 +47,16 @@ class TokenizerConfig(ComponentConfig):
                             "differences (ours, as Bailando's and T2M-GPT's VQ-VAEs; 0: off, as in the paper)")
     acceleration: float = Field(0.0, ge=0.0, description="weight of an L1 loss on its second differences "
                                 "(ours; 0: off): against the jitter a decoder adds between frames")
+    positions: float = Field(0.0, ge=0.0, description="weight of an L1 loss on the joints' positions (metres) of "
+                             "the reconstruction, by forward kinematics of the decoded `rotations` motion in the "
+                             "body's own frame (ours; 0: off): a foot's height is one number there, spread over "
+                             "several rotation channels in the representation")
+    position_velocity: float = Field(0.0, ge=0.0, description="weight of an L1 loss on those positions' "
+                                     "frame-to-frame differences (metres per frame; ours; 0: off)")
+    position_weights: dict[str, float] = Field(
+        default_factory=dict, description="joint name -> its weight in the position losses (others 1; "
+        "a weighted mean over joints), e.g. the feet and hands"
+    )
     restart_after: PositiveInt | None = Field(
         None, description="replace a code unused for this many training batches by a random encoder output "
         "(dead-code restart; null: off, as in the paper)"
@@ -55,6 +65,9 @@ class TokenizerConfig(ComponentConfig):
     @model_validator(mode="after")
     def _shapes(self):
         _power_of_two(self.downsample, "downsample")
+        bad = {name: w for name, w in self.position_weights.items() if w < 0}
+        if bad:
+            raise ValueError(f"position_weights must not be negative, got {bad}")
         if self.crop % self.downsample:
             raise ValueError(f"crop ({self.crop}) must be a multiple of downsample ({self.downsample})")
         return self

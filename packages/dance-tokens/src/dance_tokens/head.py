@@ -74,7 +74,7 @@ class TM2DHead(nn.Module):
     ) -> dict[str, torch.Tensor]:
         """The VQ-VAE loss in the tokenizer stage, the decoder's cross-entropy in any other."""
         if ctx.stage == self.config.tokenizer_stage:
-            return self.tokenizer.loss(self.crops(target, ctx.generator), ctx.generator)
+            return self.tokenizer.loss(self.crops(target, ctx.generator), ctx.generator, ctx.kinematics)
         return self.prior_loss(latent, target, ctx.spans)
 
     def crops(self, target: torch.Tensor, generator: torch.Generator | None) -> torch.Tensor:

@@ -10,11 +10,13 @@ tokens, and the tests to know which frames a changed token can reach).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import torch
 import torch.nn.functional as F
 from torch import nn
 
+from dance_tokens.positions import position_losses
 from dance_tokens.quantizer import Quantized, VectorQuantizer
 
 
@@ -55,6 +57,8 @@ class MotionVQVAE(nn.Module):
         c = config
         self.downsample, self.recon = c.downsample, c.recon
         self.velocity, self.acceleration = c.velocity, c.acceleration
+        self.positions, self.position_velocity = c.positions, c.position_velocity
+        self.position_weights = dict(c.position_weights)
         weights = torch.ones(motion_dim)
         weights[: c.root_channels] = c.root_weight
         self.register_buffer("channel_weights", weights, persistent=False)
@@ -94,10 +98,13 @@ class MotionVQVAE(nn.Module):
         q = self.quantizer(self.encode_latent(motion), generator)
         return self.decode_codes(q.codes), q
 
-    def loss(self, motion: torch.Tensor, generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:
+    def loss(self, motion: torch.Tensor, generator: torch.Generator | None = None,
+             kinematics: Any = None) -> dict[str, torch.Tensor]:
         """Reconstruction (L1, or smooth L1; the first ``root_channels`` weighed ``root_weight``) + codebook +
         β · commitment, plus the optional L1 losses on the first and second frame differences (``velocity``,
-        ``acceleration`` weights), with the L1 error, codebook usage and perplexity."""
+        ``acceleration`` weights) and on the joints' positions and their frame differences (``positions``,
+        ``position_velocity``: ``kinematics`` maps motion to joint positions, see
+        :mod:`dance_tokens.positions`), with the L1 error, codebook usage and perplexity."""
         recon, q = self(motion, generator)
         l1 = F.l1_loss(recon, motion)
         per = F.l1_loss(recon, motion, reduction="none") if self.recon == "l1" else \
@@ -109,6 +116,10 @@ class MotionVQVAE(nn.Module):
                 err = F.l1_loss(torch.diff(recon, n=order, dim=1), torch.diff(motion, n=order, dim=1))
                 fit = fit + weight * err
                 out[name] = err.detach()
+        if self.positions > 0 or self.position_velocity > 0:
+            position, step = position_losses(recon, motion, kinematics, self.position_weights)
+            fit = fit + self.positions * position + self.position_velocity * step
+            out["positions"], out["position_velocity"] = position.detach(), step.detach()
         return {"loss": fit + self.quantizer.loss(q), "recon": l1.detach(), "commitment": q.commitment_loss.detach(),
                 "usage": q.usage, "perplexity": q.perplexity, **out}
 
