@@ -78,6 +78,24 @@ def test_grounded_and_bad_input():
         MotionGraph([take(5, 0.5, 0), take(5, 0.5, 1).resample(20.0)])
 
 
+def test_homogeneous_real_moves_give_one_song_one_dance(graph):
+    from dance_core.synth.synthetic_dance import REAL, make_clip
+
+    kw = {"seed": 0, "seconds": 8.0, "bpm": (100.0, 120.0), "rate": 8000, "fps": FPS, "dances_per_song": 3,
+          "graph": graph}
+
+    def positions(index, homogeneous):
+        clip = make_clip(index, homogeneous=homogeneous, **kw)
+        assert clip.meta["dancer"] == REAL and clip.texts == ()
+        return clip.motion.skeleton_motion.positions()
+
+    # song 1, dances 0 and 2: the control's are the same dance (one routine), the multimodal set's are not
+    np.testing.assert_array_equal(positions(3, True), positions(5, True))
+    assert np.abs(positions(3, False) - positions(5, False)).max() > 0.05  # metres
+    # the routine is walked to each song's own beats: another song, another dance
+    assert np.abs(positions(0, True) - positions(3, True)).max() > 0.05
+
+
 @pytest.mark.skipif(not MOCAP.is_dir(), reason="../shared/mocap not available")
 def test_real_takes_make_a_dance_with_the_statistics_of_real_dance(tmp_path):
     from dance_core.data.dataset_configs import MocapDatasetConfig

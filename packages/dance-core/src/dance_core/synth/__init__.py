@@ -4,8 +4,8 @@
 (``dance_core.defaults.synth``).
 
 ``__all__`` is what scripts may use (stable within a minor version, like ``dance_core``'s names), loaded
-on first use: a synthetic song with its dancer (``make_clip``), written as files (``write_clip``,
-``write_dataset``), a song alone (``synthesize``), the dancer's phrasings and a click track.
+on first use: a synthetic song with its dancer (``make_clip``; real moves from ``takes_graph``), written as
+files (``write_clip``, ``write_dataset``), a song alone (``synthesize``), the dancer's phrasings and a click track.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from typing import Any
 
 #: public name -> the module that defines it (imported on first use)
 _LAZY: dict[str, str] = {
-    **dict.fromkeys(("make_clip", "write_clip", "write_dataset"), "dance_core.synth.synthetic_dance"),
+    **dict.fromkeys(("make_clip", "write_clip", "write_dataset", "takes_graph"), "dance_core.synth.synthetic_dance"),
     "synthesize": "dance_core.synth.music",
     "PHRASINGS": "dance_core.synth.dancer",
     "click_track": "dance_core.data.synthetic_beats",

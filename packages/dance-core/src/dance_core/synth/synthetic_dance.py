@@ -45,7 +45,9 @@ def make_clip(index: int, *, seed: int, seconds: float, bpm: tuple[float, float]
     ``None``: all) in an order drawn per song, so the dances of one song have different dancers as far as
     there are dancers; ``homogeneous``: every dance by the first dancer in its one style and fixed
     routine (the control set: dances of one song are then the same). With a ``graph`` the dance is
-    chained from its real moves instead (:mod:`dance_core.synth.motion_graph`; no move labels).
+    chained from its real moves instead (:mod:`dance_core.synth.motion_graph`; no move labels); with
+    ``homogeneous`` too, every dance walks the graph with one draw of its own (the same for every song and
+    dance: one routine), so the dances of one song are the same (give it one take for one dancer).
     """
     song_i, dance_i = divmod(index, dances_per_song)
     names = dancer_names(None if dancers is None else list(dancers))
@@ -69,6 +71,8 @@ def make_clip(index: int, *, seed: int, seconds: float, bpm: tuple[float, float]
     sections = [(name, bar_of(a), bar_of(b)) for name, a, b in song.sections]
     sections = [(n, max(a, 0), b) for n, a, b in sections if b > max(a, 0)] or [("verse", 0, grid.bars(seconds))]
     dance_rng = np.random.default_rng([seed, song_i, 1, dance_i])
+    if graph is not None and homogeneous:  # one routine: the walk's draws depend on neither song nor dance
+        dance_rng = np.random.default_rng([seed, 1])
     if graph is not None:
         dancer, texts = REAL, ()
         motion = real_dance(graph, grid.times, seconds, fps, dance_rng, grid.downbeats(),
