@@ -21,10 +21,14 @@ first 2 s (the rest-pose seed) cut from every dance before scoring. Parts:
 Every run is cached as JSON under ``--cache``: a re-run skips what finished. ``--quick`` is the smoke
 path (one seed, few steps, short songs; its own cache). ``--steps N [--seeds K]`` is a plateau study: the
 same protocol with a budget of ``N`` steps, so the plateau rule rather than the budget ends each run (its
-own cache; each result's ``best_step`` and ``stopped`` say which ended it). The Transflower experiment always
-trains to ``Protocol.tf_steps`` (2000: at 1000, 4 of its 20 runs were still improving at the budget), with its
-results in the cache folder named for that budget; the verdict lines say how many runs the plateau rule
-ended. ``--readme`` writes the section
+own cache; each result's ``best_step`` and ``stopped`` say which ended it); it sets every budget (the
+Transflower experiment's and DanceRevolution's schedules' too) unless ``--tf-steps`` / ``--dr-steps`` set
+those. ``--real-moves [FOLDER]`` runs the whole protocol on dances chained from real moves (the CMU dance
+takes, less the held-out ones the bundled recipes leave out; ``Protocol.mocap``) in its own cache
+(runs/claims-cache-real...), and ``--readme`` then writes the ``claims-real`` markers instead. The
+Transflower experiment trains to ``Protocol.tf_steps`` (2000: at 1000, 4 of its 20 runs were still improving
+at the budget), with its results in the cache folder named for that budget; the verdict lines say how many
+runs the plateau rule ended. ``--readme`` writes the section
 between the ``claims`` markers of benchmarks/README.md (the full run only), quoting TM2D's verdict lines
 from their own sections (benchmarks/claims_tm2d.py: late fusion against slerp; claims_tm2d_music.py: the
 music-only quality of the text-trained model). TM2D's fusion-weight experiment is benchmarks/text_spans.py.
@@ -44,11 +48,24 @@ import claims_curriculum
 import claims_protocol
 import claims_transflower
 import numpy as np
-from claims_protocol import Protocol, TestSet, cached, generate, pm, reference_clips, score, scored
+from claims_protocol import (
+    CONTROL_TAKE,
+    MOCAP_EXCLUDE,
+    Protocol,
+    TestSet,
+    cached,
+    generate,
+    pm,
+    reference_clips,
+    score,
+    scored,
+)
 from claims_runs import ground_truth, run_family
 from readme_section import verdict_line, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
+#: the real takes of ``--real-moves`` (read in place)
+MOCAP = ROOT.parent / "shared" / "mocap" / "cmu-dance"
 MOGLOW_SMALL = ["model.encoder.hidden=64", "model.encoder.layers=1", "model.encoder.dim=64", "model.head.steps=8",
                 "model.head.coupling={dim: 64, layers: 1, heads: 4}"]
 #: (key, row label, recipe, overrides)
@@ -89,7 +106,8 @@ def tm2d_runs(protocol: Protocol, test: TestSet, reference) -> list[dict]:
         recipe = load_recipe("tm2d-small", ["compose.threads=1"])
         ckpt = recipe.resolve_path(recipe.compose.checkpoint)
         clips, speed = generate(recipe, ckpt, test.songs, test.beats, protocol.samples)
-        return {"temperatures": {"1": {**score(clips, reference), "frames_per_s": speed}}, "nll": None}
+        scores = score(clips, reference, protocol.metrics())
+        return {"temperatures": {"1": {**scores, "frames_per_s": speed}}, "nll": None}
 
     saved, claims_protocol.CACHED_ONLY = claims_protocol.CACHED_ONLY, False  # no training: always composed
     try:
@@ -105,7 +123,7 @@ def run_table(protocol: Protocol, only, test: TestSet) -> dict:
     songs = sorted({c.name.rsplit("-", 1)[0] for c in test.real})
     beats = {s: test.beats[songs[(i + 1) % len(songs)]] for i, s in enumerate(songs)}
     shuffled = [replace(c, music_beats=beats[c.name.rsplit("-", 1)[0]]) for c in test.real]
-    out["shuffled"] = cached(protocol, "shuffled-multimodal", lambda: score(shuffled, reference))
+    out["shuffled"] = cached(protocol, "shuffled-multimodal", lambda: score(shuffled, reference, protocol.metrics()))
     out["tm2d"] = tm2d_runs(protocol, test, reference)
     for key, _, recipe, extra in OTHERS:
         if not only or "table" in only:
@@ -119,7 +137,8 @@ def claims_table(table: dict, tf: dict | None, cur: dict | None, protocol: Proto
     """The markdown table of every family on the multimodal test songs."""
     head = ["model", *[c for _, c in COLUMNS], "NLL (nats/frame)", "train (s)", "seeds", "note"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head),
-             gt_row("Real dances (test songs, 3 dancers each)", table["gt"]),
+             gt_row("Real dances (test songs, 3 " + ("real-moves dances" if protocol.mocap else "dancers") + " each)",
+                    table["gt"]),
              gt_row("Shuffled music (real dances, another song's beats)", table["shuffled"])]
     if tf and tf["multimodal"]["flow"] and tf["multimodal"]["regression"]:
         mm = tf["multimodal"]
@@ -163,21 +182,34 @@ def main() -> None:
                         help="a plateau study: this step budget (validation every 25 steps, the same patience) in its "
                              "own cache, runs/claims-cache-steps<N>; never written into the README")
     parser.add_argument("--seeds", type=int, default=None, help="with --steps: seeds per arm (default 5)")
+    parser.add_argument("--tf-steps", type=int, default=None,
+                        help="the Transflower experiment's budget (default: --steps when given, else 2000)")
+    parser.add_argument("--dr-steps", type=int, default=None,
+                        help="DanceRevolution's schedules' budget (default: --steps when given, else 120)")
+    parser.add_argument("--real-moves", nargs="?", const=str(MOCAP), default=None, metavar="FOLDER",
+                        help="every dance chained from the real moves of these takes (default ../shared/mocap/"
+                             "cmu-dance) less the held-out ones; its own cache, runs/claims-cache-real...")
     parser.add_argument("--readme", action="store_true", help="write the result into benchmarks/README.md")
     args = parser.parse_args()
+    mocap = None if args.real_moves is None else Path(args.real_moves).resolve()
+    if mocap is not None and not mocap.is_dir():
+        parser.error(f"--real-moves: no folder of takes at {mocap} (the CMU dance takes, ../shared/mocap/cmu-dance)")
     torch.set_num_threads(1)
     tag = "-quick" if args.quick else "-reduced" if args.reduced else f"-steps{args.steps}" if args.steps else ""
-    cache = Path(args.cache or ROOT / "runs" / f"claims-cache{tag}")
+    tag += (f"-tf{args.tf_steps}" if args.tf_steps else "") + (f"-dr{args.dr_steps}" if args.dr_steps else "")
+    cache = Path(args.cache or ROOT / "runs" / f"claims-cache{'-real' if mocap else ''}{tag}")
     protocol = (Protocol.quick(cache) if args.quick else Protocol.reduced(cache) if args.reduced
                 else Protocol(cache=cache))
     if args.steps or args.seeds:
         protocol = dataclasses.replace(protocol, steps=args.steps or protocol.steps, dr_steps=args.steps or
                                        protocol.dr_steps, tf_steps=args.steps or protocol.tf_steps,
                                        seeds=args.seeds or protocol.seeds)
+    protocol = dataclasses.replace(protocol, tf_steps=args.tf_steps or protocol.tf_steps,
+                                   dr_steps=args.dr_steps or protocol.dr_steps, mocap=mocap)
     # the Transflower experiment trains to its own budget (the plateau within reach), in its own cache
     tf_protocol = protocol if protocol.tf_steps == protocol.steps else dataclasses.replace(
         protocol, steps=protocol.tf_steps, cache=cache.with_name(f"{cache.name}-steps{protocol.tf_steps}"))
-    study = args.steps or args.seeds
+    study = args.steps or args.seeds or args.tf_steps or args.dr_steps
     reduced = (" (reduced run: --reduced)" if args.reduced else " (smoke run: --quick)" if args.quick else
                f" (plateau study: --steps {protocol.steps}, {protocol.seeds} seeds)" if study else "")
     started = time.perf_counter()
@@ -196,6 +228,8 @@ def main() -> None:
         f"{' --reduced' * args.reduced}"
         f"{' --cached-only' * args.cached_only}{' --only ' + ' '.join(args.only) if args.only else ''}"
         f"{f' --steps {args.steps}' if args.steps else ''}{f' --seeds {args.seeds}' if args.seeds else ''}"
+        f"{f' --tf-steps {args.tf_steps}' if args.tf_steps else ''}"
+        f"{f' --dr-steps {args.dr_steps}' if args.dr_steps else ''}{' --real-moves' * bool(mocap)}"
         f"{' --readme' * args.readme}`; {len(files)} cached results written over {span:.0f} "
         f"min of wall time, this invocation "
         f"{total / 60:.1f} min, on {platform.machine()}, "
@@ -204,7 +238,11 @@ def main() -> None:
         f"test song, {protocol.test_songs} test songs of {protocol.test_seconds:g} s, budget {protocol.steps} "
         f"steps (the Transflower experiment {tf_protocol.steps}, its results in {tf_protocol.cache.name}; "
         f"DanceRevolution's schedules {protocol.dr_steps}; validation every {protocol.val_every}, patience "
-        f"{protocol.patience}), batch {protocol.batch_size}.",
+        f"{protocol.patience}), batch {protocol.batch_size}."
+        + (f" Real moves: every dance (training, selection, test, reference) chained from the takes in {mocap.name} "
+           f"less {', '.join(MOCAP_EXCLUDE)} (held out by the bundled recipes: one pool of takes for every split); "
+           f"the control one take ({CONTROL_TAKE}), one walk for every song and dance; move validity n/a (no "
+           f"move labels)." if mocap else ""),
         "",
         *claims_table(table, tf, cur, protocol),
         "",
@@ -220,14 +258,17 @@ def main() -> None:
     if cur:
         lines.append(claims_curriculum.verdict(cur, protocol, reduced))
     tm2d = verdict_line("- **TM2D** (late fusion")  # claims_tm2d.py's verdict; its section has the tables
-    lines.append(tm2d if tm2d else "- **TM2D**: not run yet: benchmarks/claims_tm2d.py tests its claim (late fusion "
-                 "against the slerp baseline at the span edges).")
     music = verdict_line("- **TM2D, music-only quality**")  # claims_tm2d_music.py's verdict (its own section)
-    if music:
-        lines.append(music)
+    if not mocap:  # TM2D's claims are tested on their own data, not on this protocol's: quoted once, above
+        lines.append(tm2d if tm2d else "- **TM2D**: not run yet: benchmarks/claims_tm2d.py tests its claim (late "
+                     "fusion against the slerp baseline at the span edges).")
+        if music:
+            lines.append(music)
     text = "\n".join(lines)
     print(text)
-    if args.readme and not (args.quick or args.reduced or study):  # only the full run writes the README's figures
+    if args.readme and mocap and not (args.quick or args.reduced):  # real moves: their own block
+        write_section("claims-real", text)
+    elif args.readme and not (args.quick or args.reduced or study):  # only the full run writes the README's figures
         write_section("claims", text)
 
 

@@ -7,7 +7,10 @@ features mel + onset (stream ``music``) and librosa-tracker beats (stream ``beat
 representation root deltas + exponential maps at 20 fps, AdamW with a cosine schedule, and training to
 a validation plateau: validation every ``val_every`` steps, stop after ``patience`` checks without a 1 %
 improvement, keep the best checkpoint, never past the step budget. The first ``SEED_SECONDS`` of every
-dance (generated or real) are cut before scoring: that is where the rest-pose seed sits.
+dance (generated or real) are cut before scoring: that is where the rest-pose seed sits. With
+``Protocol.mocap`` (``claims.py --real-moves``) every dance of every split is chained from the real moves of
+one pool of takes (``MOCAP_EXCLUDE`` left out, as the bundled recipes leave them out), the control from one
+take (``CONTROL_TAKE``) in one routine, and move validity is not scored (real moves have no move labels).
 
 Choices (the flow's temperature) are made on **selection songs** (``SelectionSet``: songs after the
 test songs, never scored for a claim) before the test songs are composed, at the chosen value only
@@ -36,6 +39,12 @@ BPM = (80.0, 140.0)
 FEATURES = ("features={music: [{plugin: mel}, {plugin: onset}], "
             "beat: [{plugin: beats, tracker: librosa}]}")
 METRICS = ["fid-k", "div-k", "fmd", "freezing", "beat-locking", "sample-diversity", "move-validity", "mpd"]
+#: real moves (``Protocol.mocap``): the takes the bundled real-moves recipes hold out (transflower-small,
+#: dancerevolution-real), left out of every dance here, training and test alike (one pool of takes)
+MOCAP_EXCLUDE = ("salsa_6?_09.bvh", "salsa_6?_10.bvh", "modern_05_1?.bvh")
+#: the homogeneous control on real moves (one dancer, one style, one routine): one take of the pool, the
+#: longest (37 s), walked with one draw for every song and dance (``make_clip``)
+CONTROL_TAKE = "salsa_60_01.bvh"
 
 
 @dataclass
@@ -60,6 +69,9 @@ class Protocol:
     batch_size: int = 32
     temperatures: tuple[float, ...] = (0.5, 0.75, 1.0)
     cache: Path = field(default_factory=lambda: Path("runs/claims-cache"))
+    #: a folder of motion-capture takes: every dance (training, test, selection, reference) chained from its
+    #: real moves (less ``MOCAP_EXCLUDE``) instead of the procedural dancers; None: the procedural dancers
+    mocap: Path | None = None
 
     @classmethod
     def quick(cls, cache: Path) -> Protocol:
@@ -78,9 +90,32 @@ class Protocol:
 
     def dataset(self, homogeneous: bool = False) -> str:
         """The training set override: 12 songs, 3 dances each (all dancers, or the homogeneous control)."""
+        moves = ""
+        if self.mocap is not None:
+            files, exclude = self.takes(homogeneous)
+            quoted = lambda names: "[" + ", ".join(f"'{n}'" for n in names) + "]"  # noqa: E731
+            moves = (f", mocap: '{self.mocap}', mocap_exclude: {quoted(exclude)}"
+                     + (f", mocap_files: {quoted(files)}" if files else ""))
         return (f"data.dataset={{plugin: synthetic-dance, songs: {TRAIN_SONGS}, seconds: {self.train_seconds:g}, "
                 f"dances_per_song: {DANCES}, dancers: null, homogeneous: {str(homogeneous).lower()}, "
-                f"bpm: [{BPM[0]:g}, {BPM[1]:g}], dance_to_tracker: librosa}}")
+                f"bpm: [{BPM[0]:g}, {BPM[1]:g}], dance_to_tracker: librosa{moves}}}")
+
+    def takes(self, homogeneous: bool = False) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """Real moves: (file patterns taken, patterns left out) of the takes; all but the held-out ones, the
+        control one take."""
+        return ((CONTROL_TAKE,) if homogeneous else ()), MOCAP_EXCLUDE
+
+    def graph(self, homogeneous: bool = False):
+        """The motion graph of the real-moves takes (the training set's, built once per process), or None."""
+        if self.mocap is None:
+            return None
+        from dance_core.synth import takes_graph
+
+        return takes_graph(str(self.mocap), FPS, *self.takes(homogeneous))
+
+    def metrics(self) -> list[str]:
+        """The metrics scored: all of ``METRICS``, less move validity on real moves (no move labels: n/a)."""
+        return [m for m in METRICS if self.mocap is None or m != "move-validity"]
 
     def common(self, homogeneous: bool = False) -> list[str]:
         """Overrides every family gets."""
@@ -109,12 +144,13 @@ class Protocol:
 # ---------------------------------------------------------------- data
 
 
-def source(index: int, seconds: float, homogeneous: bool = False):
-    """Clip ``index`` (song ``index // 3``, dance ``index % 3``) of the protocol's generator."""
+def source(index: int, seconds: float, homogeneous: bool = False, graph=None):
+    """Clip ``index`` (song ``index // 3``, dance ``index % 3``) of the protocol's generator (real moves from
+    ``graph``: ``Protocol.graph``)."""
     from dance_core.synth import make_clip
 
     return make_clip(index, seed=0, seconds=seconds, bpm=BPM, rate=22050, fps=FPS, dances_per_song=DANCES,
-                     tracker="librosa", dancers=None, homogeneous=homogeneous)
+                     tracker="librosa", dancers=None, homogeneous=homogeneous, graph=graph)
 
 
 def joint_clip(src, name: str | None = None, cut: float = SEED_SECONDS):
@@ -145,7 +181,7 @@ class TestSet:
 
         self.seconds, self.homogeneous = seconds, homogeneous
         first = first_song * DANCES
-        self.sources = [source(first + s * DANCES + d, seconds, homogeneous)
+        self.sources = [source(first + s * DANCES + d, seconds, homogeneous, protocol.graph(homogeneous))
                         for s in range(songs) for d in range(dances)]
         distinct_songs(self.sources[::dances])
         folder = protocol.cache / "songs" / f"{tag}-{'homo' if homogeneous else 'multi'}-{seconds:g}s"
@@ -181,7 +217,8 @@ def distinct_songs(sources) -> None:
 
 def reference_clips(protocol: Protocol, homogeneous: bool = False):
     """The real dances of the training songs, seed span cut (the reference set of FID/FMD/MPD)."""
-    return [joint_clip(source(i, protocol.train_seconds, homogeneous)) for i in range(TRAIN_SONGS * DANCES)]
+    graph = protocol.graph(homogeneous)
+    return [joint_clip(source(i, protocol.train_seconds, homogeneous, graph)) for i in range(TRAIN_SONGS * DANCES)]
 
 
 # ---------------------------------------------------------------- training

@@ -39,11 +39,13 @@ def run_family(protocol: Protocol, key: str, recipe_name: str, extra: list[str],
         def scores(songs: TestSet, t: float) -> dict:
             t0 = time.perf_counter()
             clips, speed = generate(recipe, run["checkpoint"], songs.songs, songs.beats, protocol.samples, t)
-            return {**score(clips, reference), "frames_per_s": speed, "generate_s": time.perf_counter() - t0}
+            return {**score(clips, reference, protocol.metrics()), "frames_per_s": speed,
+                    "generate_s": time.perf_counter() - t0}
 
         out = {"recipe": recipe_name, "extra": extra, "seed": seed, **run,
                **choose_then_score(temperatures, lambda t: scores(select, t), lambda t: scores(test, t))}
-        test_sources = [source(i, test.seconds, homogeneous) for i in _test_indices(test)]
+        graph = protocol.graph(homogeneous)
+        test_sources = [source(i, test.seconds, homogeneous, graph) for i in _test_indices(test)]
         out["nll"] = held_out_nll(recipe, run["checkpoint"], test_sources, batches=4, batch_size=16)
         return out
 
@@ -60,6 +62,6 @@ def ground_truth(protocol: Protocol, test: TestSet, reference, key: str) -> dict
     """The test songs' real dances scored like a model (several dances per song count as samples)."""
 
     def fresh() -> dict:
-        return score(test.real, reference)  # SONG-k names: a song's dances count as its samples
+        return score(test.real, reference, protocol.metrics())  # SONG-k names: a song's dances count as its samples
 
     return cached(protocol, key, fresh)

@@ -221,3 +221,58 @@ def test_verdicts_say_how_many_runs_the_plateau_rule_ended(claims):
     capped = {label: [{"stopped": protocol.dr_steps, "minutes": [{"PFF_rel": 0.0, "FID_k": 50.0 + j}]}
                       for j in range(5)] for label in labels}
     assert f"0 of {5 * len(labels)} runs ended by the plateau rule" in curriculum.verdict(capped, protocol)
+
+
+MOCAP = Path(__file__).resolve().parents[1] / ".." / "shared" / "mocap" / "cmu-dance"
+needs_mocap = pytest.mark.skipif(not MOCAP.is_dir(), reason="../shared/mocap not available")
+
+
+def test_without_real_moves_the_protocol_is_the_procedural_one(claims):
+    protocol_mod, _ = claims
+    protocol = protocol_mod.Protocol()
+    assert protocol.dataset() == ("data.dataset={plugin: synthetic-dance, songs: 12, seconds: 24, dances_per_song: 3, "
+                                  "dancers: null, homogeneous: false, bpm: [80, 140], dance_to_tracker: librosa}")
+    assert protocol.graph() is None and protocol.metrics() == protocol_mod.METRICS
+    assert "move-validity" in protocol.metrics()
+
+
+@needs_mocap
+def test_real_moves_train_and_test_on_one_pool_of_takes(claims):
+    from fnmatch import fnmatch
+
+    from dance_core.contexts import DatasetContext
+    from dance_core.registry import get_registry
+
+    protocol_mod, _ = claims
+    protocol = protocol_mod.Protocol(train_seconds=6.0, mocap=MOCAP.resolve())
+    assert "move-validity" not in protocol.metrics()  # no move labels on real moves: the column is n/a
+    names = protocol.graph().names
+    held_out = [n for n in names if any(fnmatch(f"{n}.bvh", p) for p in protocol_mod.MOCAP_EXCLUDE)]
+    assert len(names) == 22 and not held_out and "modern_05_09" in names and "salsa_61_07" in names
+    assert protocol.graph(homogeneous=True).names == ["salsa_60_01"]
+    for homogeneous in (False, True):  # the training set's dances are the protocol's own (source)
+        recipe = load_recipe("transflower-small", protocol.common(homogeneous))
+        spec = recipe.data.dataset
+        data = get_registry().create("dataset", spec.plugin, spec.options(),
+                                     DatasetContext(fps=recipe.fps, seed=recipe.seed, root=recipe.folder))
+        clip = data.clip(4)
+        ours = protocol_mod.source(4, 6.0, homogeneous, protocol.graph(homogeneous))
+        assert clip.meta["dancer"] == ours.meta["dancer"] == "real moves"
+        np.testing.assert_array_equal(clip.motion.skeleton_motion.positions(), ours.motion.skeleton_motion.positions())
+    # the control: one take, one routine, so a song's dances are the same; the multimodal set's differ
+    control = [protocol_mod.source(i, 6.0, True, protocol.graph(True)).motion.skeleton_motion for i in (3, 4)]
+    np.testing.assert_array_equal(control[0].positions(), control[1].positions())
+    multi = [protocol_mod.source(i, 6.0, False, protocol.graph()).motion.skeleton_motion for i in (3, 4)]
+    assert np.abs(multi[0].positions() - multi[1].positions()).max() > 0.05
+
+
+def test_real_moves_without_the_takes_is_one_clear_error(tmp_path):
+    import os
+    import subprocess
+
+    missing = tmp_path / "no-takes"
+    done = subprocess.run([sys.executable, str(BENCH / "claims.py"), "--quick", "--real-moves", str(missing),
+                           "--cache", str(tmp_path / "cache")], capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "OMP_NUM_THREADS": "1"})
+    assert done.returncode == 2 and f"--real-moves: no folder of takes at {missing}" in done.stderr
+    assert "Traceback" not in done.stderr and not (tmp_path / "cache").exists()
