@@ -23,8 +23,9 @@ import live as bench  # noqa: E402  benchmarks/live.py: samples, compare
 
 
 def simulate(composer, song: Path, lookahead: float, model_lookahead: float | None = None,
-             seconds: float | None = None) -> tuple[dict, list[dict]]:
-    """A summary and frames as ``bench.live`` gives them, from the pipeline run without real time."""
+             seconds: float | None = None, generated: list | None = None) -> tuple[dict, list[dict]]:
+    """A summary and frames as ``bench.live`` gives them, from the pipeline run without real time; the model's
+    own frames (normalized, before decoding) are appended to ``generated`` when it is given."""
     from dance_core.live.beat_lock import BeatClock
     from dance_core.live.features import LiveFeatures
     from dance_core.live.generator import LiveGenerator
@@ -52,6 +53,8 @@ def simulate(composer, song: Path, lookahead: float, model_lookahead: float | No
         while generator.ready() > 0:
             first = generator.t
             for offset, frame in enumerate(generator.step()):
+                if generated is not None:
+                    generated.append(np.asarray(frame, np.float32))
                 frames.append(frame_message(first + offset, fps, poses(first + offset, frame)))
     lag = np.asarray(poses.lock.lags) if poses.lock is not None else np.zeros(1)
     summary = {"fps": fps, "music_seconds": len(y) / bench.RATE, "frames": len(frames), "dropped_frames": 0,
