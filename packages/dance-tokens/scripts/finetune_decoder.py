@@ -72,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     def val_record(step: int) -> dict:
         model.eval()
         with torch.no_grad():
-            out = vq.loss(val_motion)
+            out = vq.loss(val_motion, kinematics=trainer.kinematics)
         model.train()
         return {"step": step, "val": {k: float(v) for k, v in out.items() if v.numel() == 1}}
 
