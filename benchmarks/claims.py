@@ -230,6 +230,7 @@ def main() -> None:
         f"{f' --steps {args.steps}' if args.steps else ''}{f' --seeds {args.seeds}' if args.seeds else ''}"
         f"{f' --tf-steps {args.tf_steps}' if args.tf_steps else ''}"
         f"{f' --dr-steps {args.dr_steps}' if args.dr_steps else ''}{' --real-moves' * bool(mocap)}"
+        f"{f' --cache {args.cache}' if args.cache else ''}"
         f"{' --readme' * args.readme}`; {len(files)} cached results written over {span:.0f} "
         f"min of wall time, this invocation "
         f"{total / 60:.1f} min, on {platform.machine()}, "
