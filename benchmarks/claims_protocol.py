@@ -24,6 +24,7 @@ Each finished run writes one JSON file into the cache folder, so a re-run skips 
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import time
 from dataclasses import dataclass, field
@@ -374,18 +375,54 @@ CACHED_ONLY = False
 
 def cached(protocol: Protocol, key: str, fn) -> dict | None:
     """``fn()``'s JSON result, from ``cache/results/key.json`` when a previous run finished it (None when
-    it did not and ``CACHED_ONLY`` is set)."""
+    it did not and ``CACHED_ONLY`` is set, or while another live process runs it: several processes share
+    one cache, each running what no other has claimed; ``--cached-only`` then reports them together)."""
     from dance_core import write_text
 
     path = protocol.cache / "results" / f"{key}.json"
     if path.exists():
         return json.loads(path.read_text())
-    if CACHED_ONLY:
+    if CACHED_ONLY or not claim(path.with_suffix(".running")):
         return None
-    result = fn()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_text(path, json.dumps(result, indent=1, default=float))
+    try:
+        result = fn()
+        write_text(path, json.dumps(result, indent=1, default=float))
+    finally:
+        path.with_suffix(".running").unlink(missing_ok=True)
     return result
+
+
+def claim(marker: Path) -> bool:
+    """Claim a run for this process by creating ``marker`` (holding its PID); False when a live process
+    holds it. A marker left by a process that has ended is taken over."""
+    marker.parent.mkdir(parents=True, exist_ok=True)
+    for _ in range(2):
+        try:
+            fd = os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+        except FileExistsError:
+            try:
+                holder, age = int(marker.read_text() or 0), time.time() - marker.stat().st_mtime
+            except (OSError, ValueError):
+                holder, age = 0, 0.0
+            if holder != os.getpid() and (alive(holder) if holder else age < 10.0):  # empty: being written
+                return False
+            marker.unlink(missing_ok=True)
+            continue
+        with os.fdopen(fd, "w") as f:
+            f.write(str(os.getpid()))
+        return True
+    return False
+
+
+def alive(pid: int) -> bool:
+    """Whether process ``pid`` is running."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def spread(values) -> tuple[float | None, float | None]:

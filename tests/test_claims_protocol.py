@@ -63,6 +63,32 @@ def test_results_are_cached_and_a_cached_only_report_runs_nothing(claims, tmp_pa
     assert protocol_mod.pm([1.0, 3.0]) == "2 ± 1" and protocol_mod.pm([None]) == "n/a"
 
 
+def test_a_run_another_live_process_claimed_is_left_to_it_and_a_dead_ones_claim_is_taken_over(claims, tmp_path):
+    import subprocess
+    import sys
+
+    protocol_mod, _ = claims
+    protocol = protocol_mod.Protocol(cache=tmp_path)
+    marker = tmp_path / "results" / "run-c.running"
+    marker.parent.mkdir(parents=True)
+    other = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        marker.write_text(str(other.pid))
+        calls = []
+        assert protocol_mod.cached(protocol, "run-c", lambda: calls.append(1) or {"FMD": 1.0}) is None
+        assert calls == [] and marker.exists()  # left to the live process
+    finally:
+        other.kill()
+        other.wait()
+    # the holder has ended: its claim is taken over, the run made, the marker removed
+    assert protocol_mod.cached(protocol, "run-c", lambda: {"FMD": 2.0}) == {"FMD": 2.0}
+    assert not marker.exists() and (tmp_path / "results" / "run-c.json").exists()
+    # a run that fails leaves no claim behind
+    with pytest.raises(RuntimeError):
+        protocol_mod.cached(protocol, "run-d", lambda: (_ for _ in ()).throw(RuntimeError("boom")))
+    assert not (tmp_path / "results" / "run-d.running").exists()
+
+
 def test_the_seed_span_is_cut_and_the_beats_move_with_it(claims):
     protocol_mod, _ = claims
     positions = np.arange(100 * 2 * 3, dtype=float).reshape(100, 2, 3)
