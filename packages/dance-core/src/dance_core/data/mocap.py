@@ -31,8 +31,9 @@ from dance_core.motion.skeleton import Skeleton
 from dance_core.protocols import MotionData
 from dance_core.registry import get_registry
 
-#: bump when retargeting changes what a cached take holds
-VERSION = 1
+#: bump when retargeting changes what a cached take holds (2: the grounding after retargeting keeps the knees'
+#: bend, ``grounding.knee_drop``; takes cached before it had knees about 2 degrees straighter)
+VERSION = 2
 
 
 def default_cache() -> Path:
