@@ -32,7 +32,16 @@ import torch
 from torch.utils.flop_counter import FlopCounterMode
 
 from dance_core import RowGenerators, TrainContext
-from dance_core.api import ComposedModel, Recipe, batching_note, build_model, load_recipe, stream_dims
+from dance_core.api import (
+    ComposedModel,
+    Recipe,
+    RotationKinematics,
+    batching_note,
+    build_model,
+    load_checkpoint,
+    load_recipe,
+    stream_dims,
+)
 
 #: peak dense bf16 tensor FLOP/s (TFLOP/s) by a substring of ``torch.cuda.get_device_name()``
 PEAK_TFLOPS = {"H200": 989.0, "H100": 989.0, "GH200": 989.0, "A100": 312.0, "L40S": 362.0, "L4": 121.0,
@@ -183,6 +192,20 @@ def rnn_flops(model: torch.nn.Module):
             handle.remove()
 
 
+def recipe_kinematics(recipe: Recipe, motion_dim: int) -> RotationKinematics | None:
+    """The joint positions a loss may ask of the training context (as the trainer gives them), from the
+    recipe's own checkpoint's motion description and statistics; None without a checkpoint of that width."""
+    if not recipe.compose.checkpoint:
+        return None
+    path = recipe.resolve_path(recipe.compose.checkpoint)
+    if not Path(path).is_file():
+        return None
+    ckpt = load_checkpoint(path)
+    if ckpt.motion.dim != motion_dim:
+        return None
+    return RotationKinematics.from_info(ckpt.motion, ckpt.stats.motion)
+
+
 def stage_batch(recipe: Recipe, stage: str | None) -> int:
     """The recipe's batch size for a stage."""
     for s in recipe.training.stages or []:
@@ -207,10 +230,11 @@ def time_training(
     loss_fn: Callable = model.training_loss
     if compile_loss:
         loss_fn = torch.compile(loss_fn)
+    kinematics = recipe_kinematics(recipe, motion_dim)
 
     def step(k: int) -> None:
         ctx = TrainContext(step=k, epoch=0, stage=stage or "main", values=values,
-                           generator=torch.Generator().manual_seed(k))
+                           generator=torch.Generator().manual_seed(k), kinematics=kinematics)
         with autocast(device, precision):
             loss = loss_fn(motion, streams, ctx)["loss"]
         loss.backward()
@@ -220,7 +244,7 @@ def time_training(
     counter = FlopCounterMode(display=False)
     with counter, rnn_flops(model) as rnn:  # one forward + backward, counted (not timed)
         ctx = TrainContext(step=0, epoch=0, stage=stage or "main", values=values,
-                           generator=torch.Generator().manual_seed(0))
+                           generator=torch.Generator().manual_seed(0), kinematics=kinematics)
         with autocast(device, precision):
             model.training_loss(motion, streams, ctx)["loss"].backward()
     opt.zero_grad(set_to_none=True)

@@ -58,7 +58,8 @@ def test_smoke_mode_measures_every_family_on_cpu(bench, monkeypatch, tmp_path):
             assert r["frames_per_s"] > 0 and r["s_per_s_music"] > 0
         else:
             assert r["gflop_per_step"] > 0 and r["samples_per_s"] > 0
-            assert r["mfu"] == pytest.approx(r["tflops_achieved"] / 0.5, rel=0.05, abs=1e-3)
+            # TFLOP/s is rounded to 0.001, so over the 0.5 peak the MFU it implies is known to 0.001 only
+            assert r["mfu"] == pytest.approx(r["tflops_achieved"] / 0.5, rel=0.05, abs=1.5e-3)
     trainable = {r["stage"]: r["params_M"] for r in rows if r["recipe"] == "tm2d-small" and r["what"] == "train"}
     assert trainable["tokenizer"] != trainable["prior"]  # each stage trains its own part
     text = bench.table(rows)

@@ -44,6 +44,7 @@ from dance_core.formats.wav import write_wav
 from dance_core.likelihood import held_out_nll
 from dance_core.model import ComposedModel, build_model
 from dance_core.motion.retarget import retarget
+from dance_core.motion.torch_fk import RotationKinematics
 from dance_core.protocols import JointClip, MotionData
 from dance_core.recipe import Recipe, load_recipe
 from dance_core.registry import get_registry
@@ -87,6 +88,7 @@ __all__ = [
     "held_out_nll",
     # checkpoints
     "Checkpoint",
+    "RotationKinematics",
     "MotionInfo",
     "load_checkpoint",
     # files and motion
