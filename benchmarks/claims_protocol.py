@@ -395,6 +395,8 @@ def cached(protocol: Protocol, key: str, fn) -> dict | None:
 def claim(marker: Path) -> bool:
     """Claim a run for this process by creating ``marker`` (holding its PID); False when a live process
     holds it. A marker left by a process that has ended is taken over."""
+    from dance_core import pid_alive
+
     marker.parent.mkdir(parents=True, exist_ok=True)
     for _ in range(2):
         try:
@@ -404,7 +406,7 @@ def claim(marker: Path) -> bool:
                 holder, age = int(marker.read_text() or 0), time.time() - marker.stat().st_mtime
             except (OSError, ValueError):
                 holder, age = 0, 0.0
-            if holder != os.getpid() and (alive(holder) if holder else age < 10.0):  # empty: being written
+            if holder != os.getpid() and (pid_alive(holder) if holder else age < 10.0):  # empty: being written
                 return False
             marker.unlink(missing_ok=True)
             continue
@@ -413,15 +415,6 @@ def claim(marker: Path) -> bool:
         return True
     return False
 
-
-def alive(pid: int) -> bool:
-    """Whether process ``pid`` is running."""
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
     return True
 
 

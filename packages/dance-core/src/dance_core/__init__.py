@@ -40,7 +40,7 @@ _LAZY: dict[str, str] = {
     **dict.fromkeys(("Registry", "Entry", "get_registry"), "dance_core.registry"),
     # helpers plugins need: audio in, files out
     **dict.fromkeys(("load_audio", "check_audio_path"), "dance_core.data.features"),
-    **dict.fromkeys(("atomic_path", "write_bytes", "write_text"), "dance_core.atomic"),
+    **dict.fromkeys(("atomic_path", "pid_alive", "write_bytes", "write_text"), "dance_core.atomic"),
     # per-row random streams: heads draw noise through draw_rows (songs composed in one batch)
     **dict.fromkeys(("RowGenerators", "draw_rows"), "dance_core.row_generators"),
     # command-line checks for plugin commands (register_commands): ranges while parsing, paths before work
@@ -80,7 +80,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # for type checkers and editors; at run time the names load lazily
-    from dance_core.atomic import atomic_path, write_bytes, write_text  # noqa: F401
+    from dance_core.atomic import atomic_path, pid_alive, write_bytes, write_text  # noqa: F401
     from dance_core.checks import (  # noqa: F401
         bounded_number,
         check_input_dir,
