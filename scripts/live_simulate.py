@@ -47,6 +47,9 @@ def simulate(composer, song: Path, lookahead: float, model_lookahead: float | No
         for row in features.take_beats():
             clock.update(beat_rows, float(row[2]), float(row[3]))
             beat_rows += 1
+        settled = features.settled_beats()
+        if settled is not None:
+            clock.settle(settled)
         generator.add(streams)
         if block is None:
             generator.end()

@@ -45,3 +45,24 @@ def test_online_beats_follow_a_tempo_change(make_clicks):
 def test_streaming_is_offered_by_the_extractor():
     live = BeatFeatures("flux", [3, 4], 55.0, 160.0).streaming(20.0, 44100)
     assert live.dim() == 6 and 0 < live.lookahead < 0.05
+
+
+def test_settled_beats_place_heard_beats_with_hindsight(make_clicks):
+    from dance_audio.online_beats import SETTLE_WINDOW, SettledBeats
+
+    times = np.r_[np.arange(0.5, 15.0, 0.5), np.arange(15.0, 30.0, 0.4)]  # 120 then 150 BPM
+    audio = make_clicks(times, 30.0)
+    live = OnlineBeats(100.0, audio.rate, [4], 55.0, 160.0)
+    seen = []
+    for lo in range(0, len(audio.samples), 2205):  # 0.1-s blocks
+        live.push(audio.samples[lo : lo + 2205])
+        seen.append(live.settled_beats().copy())
+    settled = live.settled_beats()
+    assert settled.min() >= 30.0 - SETTLE_WINDOW - 0.01  # only the window is kept
+    heard = times[(times > settled.min() + 1) & (times < 29.0)]
+    assert len(heard) > 20 and max(np.min(np.abs(settled - t)) for t in heard) < 0.02  # every click, on time
+    assert abs(np.median(np.diff(settled[settled > 20])) - 0.4) < 0.01
+    # re-decoded as the music comes: at 10 s the beats heard so far were there already
+    early = seen[int(np.ceil(10.0 * audio.rate / 2205))]  # the settled beats after the block reaching 10 s
+    assert early.max() < 10.2 and max(np.min(np.abs(early - t)) for t in times[(times > 2) & (times < 9.5)]) < 0.02
+    assert SettledBeats(55.0, 160.0).times.size == 0

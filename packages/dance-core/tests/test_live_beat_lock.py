@@ -75,3 +75,16 @@ def test_a_dance_pausing_off_the_beat_is_played_onto_it():
     rates = np.diff(np.maximum(sources, 0))[40:]
     assert rates.min() >= 1 / MAX_RATE - 1e-9 and rates.max() <= MAX_RATE + 1e-9 and rates.std() > 0.05
     assert max(lock.lags) <= MAX_LAG + 1e-9 and lock.accents.count > 40
+
+
+def test_the_clock_steers_to_settled_beats_once_the_tracker_gives_them():
+    beats = 0.5 * np.arange(40)  # what the tracker's phase says: 120 BPM on the whole seconds
+    clock = clock_of(beats, 10.0)
+    np.testing.assert_allclose(clock.ahead(10.1, 1.2), [10.5, 11.0], atol=0.03)
+    clock.settle(np.array([8.25, 8.85, 9.45]))  # too few settled beats: the phase's still count
+    np.testing.assert_allclose(clock.ahead(10.1, 1.2), [10.5, 11.0], atol=0.03)
+    settled = 0.25 + 0.6 * np.arange(17)  # with hindsight: 100 BPM, off the phase's beats
+    clock.settle(settled)
+    assert clock.period == pytest.approx(0.6)
+    np.testing.assert_allclose(clock.ahead(9.0, 2.0), [9.25, 9.85, 10.45], atol=1e-9)  # heard beats kept
+    np.testing.assert_allclose(clock.ahead(10.0, 1.5), [10.45, 11.05], atol=1e-9)  # then predicted past them

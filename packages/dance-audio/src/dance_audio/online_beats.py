@@ -11,7 +11,13 @@ model. Live, each of these uses only what has been heard:
   the most probable state gives the tempo and the beat phase, and a beat is marked when that phase
   wraps (so tempo changes are followed from beat to beat, as offline);
 * bars as offline (:func:`.beats.bar_positions`): the beat phase modulo the longest bar whose beats
-  carry the most onset energy, from running sums over the beats heard.
+  carry the most onset energy, from running sums over the beats heard;
+* **settled beats** (:class:`SettledBeats`, for whoever can wait, as the live beat lock does): Viterbi over
+  the last :data:`SETTLE_WINDOW` s of the activation, re-decoded every :data:`SETTLE_EVERY` s, so a beat
+  heard a second ago is placed knowing the second after it (fixed-lag smoothing). The forward pass has
+  only the past: over a 20-s window the settled beats matched the offline tracker's with a beat F-measure
+  of 0.84 against the forward pass's 0.79 on the four fixture songs (0.94 against 0.92 on eight
+  synthesized ones against their true beats).
 
 The columns are those of :class:`.beats.BeatFeatures`. A beat is marked on the first frame at or after
 its time (offline: the nearest frame). Look-ahead: half the tracker's 1024-sample window (23 ms) plus,
@@ -44,8 +50,12 @@ from .flux_beats import (
     SCALE_SECONDS,
     SPREAD,
     TRANSITION_LAMBDA,
+    decode_beats,
     prior_transitions,
 )
+
+#: seconds of beat activation the settled beats are decoded over, and how often (s) they are re-decoded
+SETTLE_WINDOW, SETTLE_EVERY = 20.0, 0.25
 
 
 class OnlineEnvelope:
@@ -137,6 +147,29 @@ class ForwardBarPointer:
         return float(self.position[best]) / period, period
 
 
+class SettledBeats:
+    """Beats placed with hindsight: ``push(p)`` takes one tracker frame's beat activation; every
+    :data:`SETTLE_EVERY` s the last :data:`SETTLE_WINDOW` s are decoded by Viterbi
+    (:func:`.flux_beats.decode_beats`, the offline tracker's decoding) and ``times`` holds their beats in
+    seconds from the stream's start. Each decoding may move beats of the one before it."""
+
+    def __init__(self, min_bpm: float, max_bpm: float) -> None:
+        self.min_bpm, self.max_bpm = float(min_bpm), float(max_bpm)
+        self.values: deque[float] = deque(maxlen=int(round(SETTLE_WINDOW * FPS)))
+        self.count = 0  # tracker frames pushed
+        self.decoded = 0  # tracker frames heard at the last decoding
+        self.times = np.zeros(0)
+
+    def push(self, p: float) -> None:
+        """The next tracker frame's activation; re-decodes when due."""
+        self.values.append(float(p))
+        self.count += 1
+        if self.count - self.decoded >= round(SETTLE_EVERY * FPS):
+            first = self.count - len(self.values)
+            self.times = (decode_beats(np.asarray(self.values), self.min_bpm, self.max_bpm) + first) / FPS
+            self.decoded = self.count
+
+
 class OnlineBeats:
     """The ``beats`` columns of an audio stream at ``fps``: ``push(samples)`` returns the frames it
     completes ``(k, 6)``, ``finish(n_frames)`` the rest up to ``n_frames`` (the audio padded with
@@ -157,6 +190,7 @@ class OnlineBeats:
         self.y_start = 0
         self.envelope, self.activation = OnlineEnvelope(), OnlineActivation()
         self.hmm = ForwardBarPointer(min_bpm, max_bpm)
+        self.settled = SettledBeats(min_bpm, max_bpm)
         self.tracker_frames = 0  # tracker frames done
         self.frames = 0  # output frames done
         self.phase, self.beats, self.last_phase = 0.0, 0, 0.0
@@ -170,6 +204,11 @@ class OnlineBeats:
     def dim(self) -> int:
         """Six columns, as the offline extractor."""
         return 6
+
+    def settled_beats(self) -> np.ndarray:
+        """The beats heard so far placed with hindsight (s; :class:`SettledBeats`), the last
+        :data:`SETTLE_WINDOW` s of them."""
+        return self.settled.times
 
     def push(self, samples: np.ndarray) -> np.ndarray:
         """Frames completed by the next block of mono float samples at the stream's rate."""
@@ -215,7 +254,9 @@ class OnlineBeats:
 
     def _track(self, env: float) -> None:
         self.recent_env.append(env)
-        phase, _ = self.hmm.step(self.activation(env))
+        p = self.activation(env)
+        self.settled.push(p)
+        phase, _ = self.hmm.step(p)
         if phase < self.last_phase - 0.5:  # the most probable state entered a new beat
             k = self.beats % self.bar
             self.strength[k] += max(self.recent_env)

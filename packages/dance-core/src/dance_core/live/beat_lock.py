@@ -5,9 +5,12 @@ its accents land on beats. Live, the same warp is run forward, one output frame 
 
 * **beats** (:class:`BeatClock`): the beat tracker's phase columns (sin and cos of the beat phase, as
   the ``beats`` extractor gives them live) give each beat's time to within a tracker frame, and the
-  tempo (the phase's advance per frame), so beats ahead are predicted. The tracker has heard the music
-  ``music_delay`` (0.556 s for the bundled model) past the frame being played, so the next beat or two
-  are known, not guessed;
+  tempo (the phase's advance per frame), so beats ahead are predicted. Where the tracker also places
+  beats with hindsight (``settled_beats``: dance-audio's Viterbi over the last 20 s, re-decoded every
+  0.25 s), those are used instead: the dance plays over a second behind the music heard, so the beats it
+  is steered to have been heard with a second or more after them, which the phase (the forward pass)
+  cannot use. The tracker has heard the music ``music_delay`` (0.556 s for the bundled model) past the
+  frame being generated, so the next beat or two are known, not guessed;
 * **accents** (:class:`LiveAccents`): the body's pauses (:func:`dance_core.motion.body.energy_minima`
   on :func:`~dance_core.motion.body.body_energy`, the rule offline alignment and the metrics use) over
   the last 6 s of generated frames, each known ``SETTLE`` frames after it;
@@ -47,10 +50,13 @@ LAG, MAX_LAG = 1.0, 1.6
 WINDOW = 6.0
 #: frames after an accent before it counts (its energy's smoothing and neighbours)
 SETTLE = 3
+#: settled beats needed before they replace the phase's, and the last ones whose median interval is the tempo
+SETTLED_MIN, SETTLED_TEMPO = 4, 8
 
 
 class BeatClock:
-    """Beat times from the tracker's phase columns, frame by frame: ``update(frame, sin, cos)``; ``ahead(t)``
+    """Beat times from the tracker's phase columns, frame by frame: ``update(frame, sin, cos)``, or from the
+    beats it placed with hindsight, ``settle(times)``, once it has placed :data:`SETTLED_MIN`; ``ahead(t)``
     the beats after ``t`` (known, then predicted at the current tempo)."""
 
     def __init__(self, fps: float):
@@ -58,11 +64,19 @@ class BeatClock:
         self.phase: float | None = None
         self.periods: deque[float] = deque(maxlen=8)
         self.beats: deque[float] = deque(maxlen=16)
+        self.settled = np.zeros(0)
 
     @property
     def period(self) -> float | None:
         """The current beat period (s), None before the tempo is known."""
+        if len(self.settled) >= SETTLED_MIN:
+            return float(np.median(np.diff(self.settled[-SETTLED_TEMPO:])))
         return float(np.median(self.periods)) if self.periods else None
+
+    def settle(self, times: np.ndarray) -> None:
+        """The tracker's latest beats placed with hindsight (s, ascending): they replace the phase's beats
+        once there are :data:`SETTLED_MIN` of them."""
+        self.settled = np.asarray(times, np.float64)
 
     def update(self, frame: int, sin: float, cos: float) -> None:
         """The beat phase at music frame ``frame``."""
@@ -78,10 +92,11 @@ class BeatClock:
     def ahead(self, t: float, horizon: float) -> np.ndarray:
         """Beat times (s) after ``t`` up to ``t + horizon``: those heard, then predicted at the current tempo."""
         period = self.period
-        if period is None or not self.beats:
+        heard = self.settled if len(self.settled) >= SETTLED_MIN else np.array(self.beats)
+        if period is None or not len(heard):
             return np.zeros(0)
-        known = [b for b in self.beats if b > t]
-        last = self.beats[-1]
+        known = heard[heard > t]
+        last = heard[-1]
         extra = last + period * np.arange(1, int(np.ceil((t + horizon - last) / period)) + 1)
         out = np.concatenate([known, extra[extra > t]])
         return out[out <= t + horizon]

@@ -145,6 +145,13 @@ class LiveFeatures:
         self.beat_rows = []
         return np.concatenate(rows) if rows else np.zeros((0, 4), np.float32)
 
+    def settled_beats(self) -> np.ndarray | None:
+        """The beat tracker's beats placed with hindsight (s), when it offers them (a ``settled_beats()``
+        method, as dance-audio's streaming ``beats`` has); None otherwise."""
+        part = self.parts[self.beat_part[0]][self.beat_part[1]] if self.beat_part is not None else self.tracker
+        settled = getattr(part, "settled_beats", None)
+        return np.array(settled(), np.float64) if settled is not None else None
+
     def _ready(self) -> dict[str, np.ndarray]:
         k = min(len(x) for xs in self.pending.values() for x in xs)
         out = {}

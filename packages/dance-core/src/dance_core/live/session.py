@@ -135,14 +135,16 @@ class LiveSession:
             for block in self.source.blocks():
                 arrived = time.perf_counter()
                 samples += len(block)
-                self.inbox.put((self.features.push(block), self.features.take_beats(), arrived))
+                self.inbox.put((self.features.push(block), self.features.take_beats(), self.features.settled_beats(),
+                                arrived))
                 if self.stop.is_set():
                     break
                 if self.sinks and all(s.closed.is_set() for s in self.sinks):
                     self.stats.stopped = "every output closed"
                     break
             else:
-                self.inbox.put((self.features.finish(), self.features.take_beats(), time.perf_counter()))
+                self.inbox.put((self.features.finish(), self.features.take_beats(), self.features.settled_beats(),
+                                time.perf_counter()))
             self.stats.music_seconds = samples / self.source.rate
         except KeyboardInterrupt:
             self.stats.stopped = "interrupted"
@@ -238,8 +240,8 @@ class LiveSession:
             while not self.stop.is_set():
                 item = self.inbox.get()
                 while item is not None:
-                    streams, beats, arrived = item
-                    self._beats(beats)
+                    streams, beats, settled, arrived = item
+                    self._beats(beats, settled)
                     k = len(next(iter(streams.values()))) if streams else 0
                     self.arrivals += [arrived] * k
                     gen.add(streams)
@@ -265,12 +267,15 @@ class LiveSession:
             self.error = exc
             self.stop.set()
 
-    def _beats(self, rows: np.ndarray) -> None:
-        """The beat tracker's rows (sin and cos of the beat phase in columns 2 and 3) to the clock."""
+    def _beats(self, rows: np.ndarray, settled: np.ndarray | None) -> None:
+        """The beat tracker's rows (sin and cos of the beat phase in columns 2 and 3) and its settled beats
+        (None when it has none) to the clock."""
         if self.clock is not None:
             for row in rows:
                 self.clock.update(self.beat_frames, float(row[2]), float(row[3]))
                 self.beat_frames += 1
+            if settled is not None:
+                self.clock.settle(settled)
 
     def _emit(self, index: int, frame: np.ndarray, first: bool = True) -> None:
         message = frame_message(index, self.fps, self.poses(index, frame))
