@@ -66,3 +66,22 @@ def test_settled_beats_place_heard_beats_with_hindsight(make_clicks):
     early = seen[int(np.ceil(10.0 * audio.rate / 2205))]  # the settled beats after the block reaching 10 s
     assert early.max() < 10.2 and max(np.min(np.abs(early - t)) for t in times[(times > 2) & (times < 9.5)]) < 0.02
     assert SettledBeats(55.0, 160.0).times.size == 0
+
+
+def test_settled_beats_are_the_offline_decoding_of_what_was_heard():
+    from dance_audio.flux_beats import FPS, decode_beats
+    from dance_audio.online_beats import SettledBeats
+
+    rng = np.random.default_rng(0)
+    t = np.arange(2600) / FPS  # 26 s, longer than the window traced back
+    period = 0.5 + 0.04 * np.sin(2 * np.pi * t / 11.0)  # a drifting tempo
+    phase = np.cumsum(1.0 / (period * FPS)) % 1.0
+    p = np.clip(0.02 + 0.88 * np.exp(-((np.minimum(phase, 1 - phase) * period) / 0.02) ** 2)
+                * rng.uniform(0.3, 1.0, len(t)) + rng.uniform(0.0, 0.2, len(t)), 0.02, 0.9)
+    settled = SettledBeats(55.0, 160.0)
+    for k, value in enumerate(p, 1):
+        settled.push(value)
+        if k in (900, len(p) - len(p) % 25):  # traced every 25 frames: compare with Viterbi over all heard
+            offline = decode_beats(p[:k], 55.0, 160.0) / FPS
+            kept = offline[offline >= settled.times.min() - 1e-9]
+            assert len(settled.times) > 10 and np.array_equal(settled.times, kept)

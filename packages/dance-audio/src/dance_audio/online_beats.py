@@ -12,12 +12,11 @@ model. Live, each of these uses only what has been heard:
   wraps (so tempo changes are followed from beat to beat, as offline);
 * bars as offline (:func:`.beats.bar_positions`): the beat phase modulo the longest bar whose beats
   carry the most onset energy, from running sums over the beats heard;
-* **settled beats** (:class:`SettledBeats`, for whoever can wait, as the live beat lock does): Viterbi over
-  the last :data:`SETTLE_WINDOW` s of the activation, re-decoded every :data:`SETTLE_EVERY` s, so a beat
-  heard a second ago is placed knowing the second after it (fixed-lag smoothing). The forward pass has
-  only the past: over a 20-s window the settled beats matched the offline tracker's with a beat F-measure
-  of 0.84 against the forward pass's 0.79 on the four fixture songs (0.94 against 0.92 on eight
-  synthesized ones against their true beats).
+* **settled beats** (:class:`SettledBeats`, for whoever can wait, as the live beat lock does): the same
+  model decoded by Viterbi as offline, run forward frame by frame and traced back every
+  :data:`SETTLE_EVERY` s over the last :data:`SETTLE_WINDOW` s, so a beat heard a second ago is placed
+  knowing the second after it (fixed-lag smoothing), which the forward pass's best state cannot
+  (``benchmarks/online_beats.py``).
 
 The columns are those of :class:`.beats.BeatFeatures`. A beat is marked on the first frame at or after
 its time (offline: the nearest frame). Look-ahead: half the tracker's 1024-sample window (23 ms) plus,
@@ -50,11 +49,10 @@ from .flux_beats import (
     SCALE_SECONDS,
     SPREAD,
     TRANSITION_LAMBDA,
-    decode_beats,
     prior_transitions,
 )
 
-#: seconds of beat activation the settled beats are decoded over, and how often (s) they are re-decoded
+#: seconds the settled beats are traced back over, and how often (s) they are traced
 SETTLE_WINDOW, SETTLE_EVERY = 20.0, 0.25
 
 
@@ -148,26 +146,66 @@ class ForwardBarPointer:
 
 
 class SettledBeats:
-    """Beats placed with hindsight: ``push(p)`` takes one tracker frame's beat activation; every
-    :data:`SETTLE_EVERY` s the last :data:`SETTLE_WINDOW` s are decoded by Viterbi
-    (:func:`.flux_beats.decode_beats`, the offline tracker's decoding) and ``times`` holds their beats in
-    seconds from the stream's start. Each decoding may move beats of the one before it."""
+    """Beats placed with hindsight: Viterbi over the same model as :class:`ForwardBarPointer`, run forward
+    one frame at a time (``push(p)``: the best score of every state and, for each tempo's first state, the
+    tempo it was best entered from), traced back every :data:`SETTLE_EVERY` s from the best state now over
+    the last :data:`SETTLE_WINDOW` s. ``times`` holds those beats in seconds from the stream's start, each
+    on the largest activation of its beat range as offline. It is the offline tracker's decoding of
+    everything heard so far, so each trace may move the beats of the one before it."""
 
     def __init__(self, min_bpm: float, max_bpm: float) -> None:
-        self.min_bpm, self.max_bpm = float(min_bpm), float(max_bpm)
-        self.values: deque[float] = deque(maxlen=int(round(SETTLE_WINDOW * FPS)))
+        from .dbn import bar_model
+
+        model = bar_model(1, 60.0 * FPS / max_bpm, 60.0 * FPS / min_bpm, NUM_TEMPI, TRANSITION_LAMBDA,
+                          float(OBSERVATION_LAMBDA))
+        log_trans, periods = prior_transitions(model.log_trans, model.periods, FPS)
+        self.periods = np.asarray(periods, dtype=np.int64)
+        self.log_trans = np.asarray(log_trans, np.float64)  # [j, i]: from the end of chain j into chain i
+        self.starts = np.concatenate(([0], np.cumsum(self.periods)[:-1]))
+        self.ends = self.starts + self.periods - 1
+        self.chain = np.repeat(np.arange(len(self.periods)), self.periods)
+        self.position = np.arange(int(self.periods.sum())) - self.starts[self.chain]
+        self.beat_len = np.asarray(model.on_beat[0], np.int64)
+        self.on_beat = self.position < self.beat_len[self.chain]
+        self.score = np.zeros(len(self.chain))  # log scores less their maximum (uniform start)
+        size = int(round(SETTLE_WINDOW * FPS))
+        self.back = np.zeros((size, len(self.periods)), np.int16)  # ring: per frame, each chain entered from
+        self.p = np.zeros(size)  # ring: the activations
         self.count = 0  # tracker frames pushed
-        self.decoded = 0  # tracker frames heard at the last decoding
         self.times = np.zeros(0)
 
     def push(self, p: float) -> None:
-        """The next tracker frame's activation; re-decodes when due."""
-        self.values.append(float(p))
+        """The next tracker frame's activation; traces the beats back when due."""
+        p = float(p)
+        score = self.score
+        new = np.empty_like(score)
+        new[1:] = score[:-1]
+        entering = score[self.ends][:, None] + self.log_trans
+        best = np.argmax(entering, axis=0)
+        new[self.starts] = entering[best, np.arange(len(best))]
+        new += np.where(self.on_beat, np.log(p), np.log((1.0 - p) / (OBSERVATION_LAMBDA - 1)))
+        self.score = new - new.max()
+        k = self.count % len(self.p)
+        self.back[k], self.p[k] = best, p
         self.count += 1
-        if self.count - self.decoded >= round(SETTLE_EVERY * FPS):
-            first = self.count - len(self.values)
-            self.times = (decode_beats(np.asarray(self.values), self.min_bpm, self.max_bpm) + first) / FPS
-            self.decoded = self.count
+        if self.count % round(SETTLE_EVERY * FPS) == 0:
+            self.times = self._trace()
+
+    def _trace(self) -> np.ndarray:
+        """The beats of the best path ending now, over the frames still in the ring."""
+        size, last = len(self.p), self.count - 1
+        oldest = max(0, self.count - size)
+        state = int(np.argmax(self.score))
+        chain, entry = int(self.chain[state]), last - int(self.position[state])
+        beats = []
+        while entry >= oldest:
+            frames = np.arange(entry, min(entry + int(self.beat_len[chain]), last + 1))
+            beats.append(int(frames[np.argmax(self.p[frames % size])]))
+            if entry - 1 < oldest:
+                break
+            before = int(self.back[entry % size, chain])
+            entry, chain = entry - int(self.periods[before]), before
+        return np.array(beats[::-1], np.float64) / FPS
 
 
 class OnlineBeats:
@@ -206,8 +244,8 @@ class OnlineBeats:
         return 6
 
     def settled_beats(self) -> np.ndarray:
-        """The beats heard so far placed with hindsight (s; :class:`SettledBeats`), the last
-        :data:`SETTLE_WINDOW` s of them."""
+        """The beats heard so far placed with hindsight (s; :class:`SettledBeats`), those of the last
+        :data:`SETTLE_WINDOW` s."""
         return self.settled.times
 
     def push(self, samples: np.ndarray) -> np.ndarray:

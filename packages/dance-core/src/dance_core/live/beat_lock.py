@@ -6,7 +6,7 @@ its accents land on beats. Live, the same warp is run forward, one output frame 
 * **beats** (:class:`BeatClock`): the beat tracker's phase columns (sin and cos of the beat phase, as
   the ``beats`` extractor gives them live) give each beat's time to within a tracker frame, and the
   tempo (the phase's advance per frame), so beats ahead are predicted. Where the tracker also places
-  beats with hindsight (``settled_beats``: dance-audio's Viterbi over the last 20 s, re-decoded every
+  beats with hindsight (``settled_beats``: dance-audio's Viterbi decoding of all heard, traced back every
   0.25 s), those are used instead: the dance plays over a second behind the music heard, so the beats it
   is steered to have been heard with a second or more after them, which the phase (the forward pass)
   cannot use. The tracker has heard the music ``music_delay`` (0.556 s for the bundled model) past the
