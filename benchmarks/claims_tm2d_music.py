@@ -3,8 +3,9 @@
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/claims_tm2d_music.py [--seeds 5] [--steps 7000]
         [--runs runs/claims-tm2d-music] [--samples 3] [--seconds 30] [--json OUT] [--readme]
 
-Two arms of ``tm2d-small``, ``--seeds`` training seeds each (recipe ``seed=0..N-1``), both from the bundled
-VQ-VAE (``--vqvae``: ``runs/tm2d-real2`` at step 3000, its weights and normalization statistics through
+Two arms of ``tm2d-small``, ``--seeds`` training seeds each (recipe ``seed=0..N-1``), both from one VQ-VAE
+(``--vqvae``: by default ``runs/tm2d-real2`` at step 3000, the one bundled until 2 Dec 2026, whose successor
+adds a position loss; its weights and normalization statistics through
 ``training.init``), with the same music-dance pairs (real moves: the ``mocap`` option, the held-out takes
 left out), steps, batch (32) and learning rate (5e-4); only the audio encoder and the prior train:
 
