@@ -109,10 +109,11 @@ class OnlineActivation:
         return FLOOR + (PEAK - FLOOR) * min(max(rise / scale, 0.0), 1.0)
 
 
-class ForwardBarPointer:
-    """The forward (filtering) pass of the beat-only bar-pointer HMM that :func:`.flux_beats.decode_beats`
-    decodes by Viterbi: states are (tempo, frame within the beat); ``step(p)`` takes one frame's beat
-    activation and returns the most probable state's ``(beat phase in [0, 1), beat period in frames)``."""
+class BeatChains:
+    """The states of the beat-only bar-pointer HMM that :func:`.flux_beats.decode_beats` decodes, laid out
+    for stepping frame by frame: one chain of states per tempo (``periods`` frames each, the first
+    ``beat_len`` of them in the beat range), ``log_trans[j, i]`` from the end of chain ``j`` into the start
+    of chain ``i`` (the tempo prior included), and per state its ``chain``, ``position`` and ``on_beat``."""
 
     def __init__(self, min_bpm: float, max_bpm: float, fps: float = FPS) -> None:
         from .dbn import bar_model
@@ -121,15 +122,26 @@ class ForwardBarPointer:
                           float(OBSERVATION_LAMBDA))
         log_trans, periods = prior_transitions(model.log_trans, model.periods, fps)
         self.periods = np.asarray(periods, dtype=np.int64)
+        self.log_trans = np.asarray(log_trans, np.float64)
         self.starts = np.concatenate(([0], np.cumsum(self.periods)[:-1]))
         self.ends = self.starts + self.periods - 1
-        log_trans = log_trans - log_trans.max()
-        self.trans = np.exp(log_trans)  # [j, i]: from the end of chain j into the start of chain i
-        n = int(self.periods.sum())
         self.chain = np.repeat(np.arange(len(self.periods)), self.periods)
-        self.position = np.arange(n) - self.starts[self.chain]
-        self.on_beat = self.position < np.asarray(model.on_beat[0])[self.chain]
-        self.alpha = np.full(n, 1.0 / n)
+        self.position = np.arange(int(self.periods.sum())) - self.starts[self.chain]
+        self.beat_len = np.asarray(model.on_beat[0], np.int64)
+        self.on_beat = self.position < self.beat_len[self.chain]
+
+
+class ForwardBarPointer:
+    """The forward (filtering) pass of the beat-only bar-pointer HMM that :func:`.flux_beats.decode_beats`
+    decodes by Viterbi: states are (tempo, frame within the beat); ``step(p)`` takes one frame's beat
+    activation and returns the most probable state's ``(beat phase in [0, 1), beat period in frames)``."""
+
+    def __init__(self, min_bpm: float, max_bpm: float, fps: float = FPS) -> None:
+        self.model = m = BeatChains(min_bpm, max_bpm, fps)
+        self.periods, self.starts, self.ends = m.periods, m.starts, m.ends
+        self.chain, self.position, self.on_beat = m.chain, m.position, m.on_beat
+        self.trans = np.exp(m.log_trans - m.log_trans.max())  # [j, i]: from the end of chain j into chain i
+        self.alpha = np.full(len(self.chain), 1.0 / len(self.chain))
 
     def step(self, p: float) -> tuple[float, int]:
         """Advance one frame with beat activation ``p``."""
@@ -154,19 +166,9 @@ class SettledBeats:
     everything heard so far, so each trace may move the beats of the one before it."""
 
     def __init__(self, min_bpm: float, max_bpm: float) -> None:
-        from .dbn import bar_model
-
-        model = bar_model(1, 60.0 * FPS / max_bpm, 60.0 * FPS / min_bpm, NUM_TEMPI, TRANSITION_LAMBDA,
-                          float(OBSERVATION_LAMBDA))
-        log_trans, periods = prior_transitions(model.log_trans, model.periods, FPS)
-        self.periods = np.asarray(periods, dtype=np.int64)
-        self.log_trans = np.asarray(log_trans, np.float64)  # [j, i]: from the end of chain j into chain i
-        self.starts = np.concatenate(([0], np.cumsum(self.periods)[:-1]))
-        self.ends = self.starts + self.periods - 1
-        self.chain = np.repeat(np.arange(len(self.periods)), self.periods)
-        self.position = np.arange(int(self.periods.sum())) - self.starts[self.chain]
-        self.beat_len = np.asarray(model.on_beat[0], np.int64)
-        self.on_beat = self.position < self.beat_len[self.chain]
+        self.model = m = BeatChains(min_bpm, max_bpm)
+        self.periods, self.log_trans, self.starts, self.ends = m.periods, m.log_trans, m.starts, m.ends
+        self.chain, self.position, self.beat_len, self.on_beat = m.chain, m.position, m.beat_len, m.on_beat
         self.score = np.zeros(len(self.chain))  # log scores less their maximum (uniform start)
         size = int(round(SETTLE_WINDOW * FPS))
         self.back = np.zeros((size, len(self.periods)), np.int16)  # ring: per frame, each chain entered from
