@@ -55,7 +55,7 @@ def songs(music: list[Path], synth: int, seed: int):
     """``(group, name, samples, rate, reference beats)`` of the fixture and synthesized songs."""
     from dance_audio.beats import track_beats
     from dance_core import get_registry, load_audio
-    from dance_core.synth.music import synthesize
+    from dance_core.synth import synthesize
 
     for path in music:
         audio = load_audio(path, get_registry())
