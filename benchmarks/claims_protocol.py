@@ -415,8 +415,6 @@ def claim(marker: Path) -> bool:
         return True
     return False
 
-    return True
-
 
 def spread(values) -> tuple[float | None, float | None]:
     """Mean and standard deviation (over seeds) of the values that are not None."""

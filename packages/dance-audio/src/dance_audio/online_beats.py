@@ -137,7 +137,7 @@ class ForwardBarPointer:
     activation and returns the most probable state's ``(beat phase in [0, 1), beat period in frames)``."""
 
     def __init__(self, min_bpm: float, max_bpm: float, fps: float = FPS) -> None:
-        self.model = m = BeatChains(min_bpm, max_bpm, fps)
+        m = BeatChains(min_bpm, max_bpm, fps)
         self.periods, self.starts, self.ends = m.periods, m.starts, m.ends
         self.chain, self.position, self.on_beat = m.chain, m.position, m.on_beat
         self.trans = np.exp(m.log_trans - m.log_trans.max())  # [j, i]: from the end of chain j into chain i
@@ -166,7 +166,7 @@ class SettledBeats:
     everything heard so far, so each trace may move the beats of the one before it."""
 
     def __init__(self, min_bpm: float, max_bpm: float) -> None:
-        self.model = m = BeatChains(min_bpm, max_bpm)
+        m = BeatChains(min_bpm, max_bpm)
         self.periods, self.log_trans, self.starts, self.ends = m.periods, m.log_trans, m.starts, m.ends
         self.chain, self.position, self.beat_len, self.on_beat = m.chain, m.position, m.beat_len, m.on_beat
         self.score = np.zeros(len(self.chain))  # log scores less their maximum (uniform start)
