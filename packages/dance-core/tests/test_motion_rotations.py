@@ -3,7 +3,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from dance_core.motion import rotations as R
-from dance_core.motion.fk import forward_kinematics
+from dance_core.motion.fk import MATRIX_FRAMES, end_site_positions, forward_kinematics, joint_positions
 from dance_core.motion.skeletons import dance24
 
 ORDERS = ["XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"]
@@ -74,6 +74,20 @@ def test_forward_kinematics_batches():
     # bone lengths are preserved by any rotation
     bones = np.linalg.norm(pos[..., 1:, :] - pos[..., skel.parents[1:], :], axis=-1)
     np.testing.assert_allclose(bones, np.broadcast_to(np.linalg.norm(skel.offsets[1:], axis=-1), bones.shape))
+
+
+@pytest.mark.parametrize("shape", [(1,), (3, 4), (MATRIX_FRAMES + 1,)])
+def test_joint_positions_are_forward_kinematics_positions_with_the_end_sites(shape):
+    """Few frames go through rotation matrices, many through quaternions: the same positions either way."""
+    skel = dance24()
+    n = int(np.prod(shape))
+    q = Rotation.random(n * 24, random_state=4).as_quat().reshape(*shape, 24, 4)
+    root = np.random.default_rng(1).normal(size=(*shape, 3))
+    pos, world = forward_kinematics(skel, root, q)
+    np.testing.assert_allclose(joint_positions(skel, root, q), pos, atol=1e-12)
+    ends = joint_positions(skel, root, q, end_sites=True)
+    assert ends.shape == (*shape, 24 + len(skel.end_sites), 3)
+    np.testing.assert_allclose(ends, np.concatenate([pos, end_site_positions(skel, pos, world)], axis=-2), atol=1e-12)
 
 
 def test_identity_rotations_give_the_rest_pose():

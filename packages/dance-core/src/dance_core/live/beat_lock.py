@@ -34,7 +34,7 @@ from collections import deque
 import numpy as np
 
 from dance_core.motion.body import Body, body_energy, energy_minima
-from dance_core.motion.fk import forward_kinematics
+from dance_core.motion.fk import joint_positions
 from dance_core.motion.rotations import quat_slerp
 from dance_core.motion.skeleton import Skeleton
 
@@ -217,4 +217,4 @@ class BeatLock:
         if a[1] is None:
             return root, None, (1 - w) * a[2] + w * b[2]
         rotations = quat_slerp(a[1], b[1], np.full((len(a[1]), 1), w))
-        return root, rotations, forward_kinematics(self.skeleton, root, rotations)[0]
+        return root, rotations, joint_positions(self.skeleton, root, rotations)

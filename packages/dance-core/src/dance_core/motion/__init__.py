@@ -19,7 +19,7 @@ _LAZY: dict[str, str] = {
     "Motion": "dance_core.motion.motion",
     "Skeleton": "dance_core.motion.skeleton",
     "dance24": "dance_core.motion.skeletons",
-    **dict.fromkeys(("forward_kinematics", "end_site_positions"), "dance_core.motion.fk"),
+    **dict.fromkeys(("forward_kinematics", "end_site_positions", "joint_positions"), "dance_core.motion.fk"),
     **dict.fromkeys(("expmap_to_quat", "quat_rotate", "quat_slerp"), "dance_core.motion.rotations"),
     **dict.fromkeys(("rig_frames", "RigFrames"), "dance_core.motion.retarget"),  # retarget: dance_core.api
     **dict.fromkeys(("renamed", "arms_lowered"), "dance_core.motion.rig_maps"),

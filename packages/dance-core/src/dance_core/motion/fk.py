@@ -6,8 +6,13 @@ from functools import lru_cache
 
 import numpy as np
 
-from dance_core.motion.rotations import quat_mul, quat_rotate
+from dance_core.motion.rotations import quat_mul, quat_rotate, quat_to_matrix
 from dance_core.motion.skeleton import Skeleton
+
+#: batches of at most this many frames find positions through rotation matrices: a product per joint level
+#: where quaternions take a dozen NumPy calls, about 4x faster for one frame (``dance live`` poses frame by
+#: frame); larger batches through quaternions, whose elementwise products beat NumPy's small matrix products
+MATRIX_FRAMES = 64
 
 
 def forward_kinematics(
@@ -28,6 +33,33 @@ def forward_kinematics(
         world_r[..., joints, :] = quat_mul(world_r[..., parents, :], rotations[..., joints, :])
         world_p[..., joints, :] = world_p[..., parents, :] + quat_rotate(world_r[..., parents, :], offsets[joints])
     return world_p, world_r
+
+
+def joint_positions(skeleton: Skeleton, root: np.ndarray, rotations: np.ndarray, end_sites: bool = False
+                    ) -> np.ndarray:
+    """World positions ``(..., J, 3)`` of :func:`forward_kinematics`, with the End Sites' appended (in
+    ``end_sites`` key order) when asked; batches of at most :data:`MATRIX_FRAMES` frames through rotation
+    matrices (the same positions to rounding)."""
+    rotations = np.asarray(rotations, np.float64)
+    joints = rotations.shape[-2]
+    if rotations.size > MATRIX_FRAMES * joints * 4:
+        pos, world = forward_kinematics(skeleton, root, rotations)
+        return np.concatenate([pos, end_site_positions(skeleton, pos, world)], axis=-2) if end_sites else pos
+    local = quat_to_matrix(rotations)
+    world = np.empty_like(local)
+    pos = np.empty(rotations.shape[:-1] + (3,))
+    world[..., 0, :, :] = local[..., 0, :, :]
+    pos[..., 0, :] = root
+    offsets = skeleton.offsets
+    for children, parents in _levels(tuple(int(p) for p in skeleton.parents)):
+        above = world[..., parents, :, :]
+        world[..., children, :, :] = above @ local[..., children, :, :]
+        pos[..., children, :] = pos[..., parents, :] + (above @ offsets[children][..., None])[..., 0]
+    if not end_sites:
+        return pos
+    keys = sorted(skeleton.end_sites)
+    tips = np.array([skeleton.end_sites[j] for j in keys], np.float64).reshape(-1, 3, 1)
+    return np.concatenate([pos, pos[..., keys, :] + (world[..., keys, :, :] @ tips)[..., 0]], axis=-2)
 
 
 @lru_cache(maxsize=64)

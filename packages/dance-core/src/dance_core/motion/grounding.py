@@ -515,19 +515,16 @@ def _pin_shifts(ankle: np.ndarray, hip: np.ndarray, contact: np.ndarray, blend: 
     n = len(contact)
     shift = np.zeros((n, 3))
     runs = _runs(contact)
-    for start, stop in runs:
-        target = ankle[start:stop].copy()
-        target[:, [0, 2]] = pin[start:stop]
-        shift[start:stop] = within_reach(hip[start:stop], ankle[start:stop], target, reach, lift[start:stop]) \
-            - ankle[start:stop]
+    target = ankle[contact]  # each frame on its own: all the spans' frames at once
+    target[:, [0, 2]] = pin[contact]
+    shift[contact] = within_reach(hip[contact], ankle[contact], target, reach, lift[contact]) - ankle[contact]
     edges = [0] + [e for run in runs for e in run] + [n]  # span k runs edges[2k + 1]..edges[2k + 2]
     for k, (start, stop) in enumerate(runs):
         before, after = start - edges[2 * k], edges[2 * k + 3] - stop
         for frame, edge, room, step in ((start - 1, start, before, -1), (stop, stop - 1, after, 1)):
             length = min(blend, room)
-            for d in range(length):
-                s = 1.0 - (d + 1) / (length + 1)
-                shift[frame + step * d] += s * s * (3 - 2 * s) * shift[edge]
+            s = 1.0 - np.arange(1, length + 1) / (length + 1)
+            shift[frame + step * np.arange(length)] += (s * s * (3 - 2 * s))[:, None] * shift[edge]
     faded = (shift != 0).any(1) & ~contact
     faded_target = ankle[faded] + shift[faded]
     shift[faded] = within_reach(hip[faded], ankle[faded], faded_target, reach, lift[faded]) - ankle[faded]

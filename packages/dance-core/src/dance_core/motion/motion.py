@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from dance_core.errors import DataError
-from dance_core.motion.fk import end_site_positions, forward_kinematics
+from dance_core.motion.fk import joint_positions
 from dance_core.motion.skeleton import Skeleton
 
 
@@ -58,10 +58,7 @@ class Motion:
         """World joint positions ``(T, J, 3)`` (with End Sites appended when asked)."""
         if self.rotations is None:
             return self.joint_positions
-        pos, rot = forward_kinematics(self.skeleton, self.root, self.rotations)
-        if end_sites:
-            pos = np.concatenate([pos, end_site_positions(self.skeleton, pos, rot)], axis=1)
-        return pos
+        return joint_positions(self.skeleton, self.root, self.rotations, end_sites)
 
     def crop(self, start: int, stop: int | None = None) -> Motion:
         """Frames ``[start, stop)``."""
