@@ -217,10 +217,11 @@ def main() -> None:
 
 
 def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None, recipe: str = "default",
-            seconds: float | None = None) -> list[dict]:
+            seconds: float | None = None, seeds: int | None = None) -> list[dict]:
     """For each song (its first ``seconds``), the live dance of ``recipe`` (``play(composer, song)`` gives
     ``live``'s summary and frames) against the offline one: locking, floor and motion, with the summary's
-    latency, drops and load; printed as lines, or as JSON at the end."""
+    latency, drops and load; printed as lines, or as JSON at the end. ``seeds``: each song danced with the
+    recipe's seed set to 0 .. seeds - 1 (the recipe's own seed when None)."""
     import torch
 
     from dance_audio.beats import track_beats
@@ -229,11 +230,13 @@ def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None, r
     from dance_core.motion import Motion
 
     torch.set_num_threads(1)
-    composer = Composer(load_recipe(recipe))
-    skeleton = composer.checkpoint.motion.skeleton
+    base = load_recipe(recipe)
+    composers = [Composer(base)] if seeds is None else [Composer(base.model_copy(update={"seed": k}))
+                                                         for k in range(seeds)]
+    skeleton = composers[0].checkpoint.motion.skeleton
     names = skeleton.names
     rows, real = [], Realism()
-    for song in songs:
+    for song, composer in ((song, composer) for song in songs for composer in composers):
         summary, frames = play(composer, song)
         fps = summary["fps"]
         live_motion = Motion(skeleton, fps, np.array([f["root"] for f in frames]),
@@ -246,7 +249,7 @@ def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None, r
         off_motion = offline.skeleton_motion
         off_pos = off_motion.positions()
         lat = summary["latency_ms"]
-        row = {"song": song.name, "seconds": summary["music_seconds"], **(extra or {}),
+        row = {"song": song.name, "seed": composer.recipe.seed, "seconds": summary["music_seconds"], **(extra or {}),
                "frames": summary["frames"], "dropped": summary["dropped_frames"], "latency_ms": lat,
                "latency_ms_step_first": summary.get("latency_ms_step_first"),
                "latency_ms_by_minute": summary["latency_ms_by_minute"],
@@ -265,7 +268,7 @@ def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None, r
             rl, ro = row["live_realism"], row["offline_realism"]
             timing = (f"{row['frames']} frames, {row['dropped']} dropped, latency p50 {lat['p50']:.1f} p95 "
                       f"{lat['p95']:.1f} max {lat['max']:.1f} ms" if lat else f"{row['frames']} frames, simulated")
-            print(f"{song.name}: {timing}; locking live {row['live']['locking']:.2f} "
+            print(f"{song.name} (seed {row['seed']}): {timing}; locking live {row['live']['locking']:.2f} "
                   f"(control {row['live']['control']:.2f}) offline {row['offline']['locking']:.2f} "
                   f"(control {row['offline']['control']:.2f}); after 5 s live {row['live_after_5s']['locking']:.2f} "
                   f"offline {row['offline_after_5s']['locking']:.2f}; float live {fl['float']:.3f} offline "

@@ -8,7 +8,7 @@ music is known and every frame is posed (``LivePoses``: grounding, beat lock). N
 ``--lookahead S`` sets the grounding's look-ahead (0: the causal grounding), to compare.
 
     python scripts/live_simulate.py [--lookahead 0.25] [--songs A.ogg B.ogg] [--json]
-        [--recipe tm2d-small --model-lookahead 0.5 --seconds 30]
+        [--recipe tm2d-small --model-lookahead 0.5 --seconds 30] [--seeds 3] [--max-rate 1.35]
 """
 
 from __future__ import annotations
@@ -81,12 +81,19 @@ def main() -> None:
     parser.add_argument("--model-lookahead", type=float,
                         help="dance live --lookahead: seconds of music a song-level model waits for (tm2d-small)")
     parser.add_argument("--seconds", type=float, help="each song's first seconds only")
+    parser.add_argument("--seeds", type=int, help="dance each song with seeds 0 .. N-1 (default: the recipe's seed)")
+    parser.add_argument("--max-rate", type=float, help="the beat lock's rate bound (default: beat_lock.MAX_RATE)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
+    if args.max_rate is not None:
+        from dance_core.live import beat_lock
+
+        beat_lock.MAX_RATE = args.max_rate
     bench.compare(args.songs, lambda composer, song: simulate(composer, song, args.lookahead, args.model_lookahead,
                                                               args.seconds),
                   args.json, {"simulated": True, "lookahead": args.lookahead, "recipe": args.recipe,
-                              "model_lookahead": args.model_lookahead}, args.recipe, args.seconds)
+                              "model_lookahead": args.model_lookahead, "max_rate": args.max_rate},
+                  args.recipe, args.seconds, args.seeds)
 
 
 if __name__ == "__main__":
