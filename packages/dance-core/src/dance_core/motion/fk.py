@@ -6,7 +6,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from dance_core.motion.rotations import quat_mul, quat_rotate, quat_to_matrix
+from dance_core.motion.rotations import quat_mul, quat_rotate
 from dance_core.motion.skeleton import Skeleton
 
 #: batches of at most this many frames find positions through rotation matrices: a product per joint level
@@ -45,7 +45,7 @@ def joint_positions(skeleton: Skeleton, root: np.ndarray, rotations: np.ndarray,
     if rotations.size > MATRIX_FRAMES * joints * 4:
         pos, world = forward_kinematics(skeleton, root, rotations)
         return np.concatenate([pos, end_site_positions(skeleton, pos, world)], axis=-2) if end_sites else pos
-    local = quat_to_matrix(rotations)
+    local = _rotation_matrices(rotations)
     world = np.empty_like(local)
     pos = np.empty(rotations.shape[:-1] + (3,))
     world[..., 0, :, :] = local[..., 0, :, :]
@@ -60,6 +60,18 @@ def joint_positions(skeleton: Skeleton, root: np.ndarray, rotations: np.ndarray,
     keys = sorted(skeleton.end_sites)
     tips = np.array([skeleton.end_sites[j] for j in keys], np.float64).reshape(-1, 3, 1)
     return np.concatenate([pos, pos[..., keys, :] + (world[..., keys, :, :] @ tips)[..., 0]], axis=-2)
+
+
+def _rotation_matrices(q: np.ndarray) -> np.ndarray:
+    """``(..., 3, 3)`` matrices ``M`` with ``M v == quat_rotate(q, v)``: the rotation of a unit quaternion, the
+    same arithmetic for any other (nothing normalized, so a malformed one cannot raise where the quaternion
+    path would not)."""
+    x, y, z, w = (q[..., k] for k in range(4))
+    m = np.empty(q.shape[:-1] + (3, 3))
+    m[..., 0, 0], m[..., 0, 1], m[..., 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
+    m[..., 1, 0], m[..., 1, 1], m[..., 1, 2] = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
+    m[..., 2, 0], m[..., 2, 1], m[..., 2, 2] = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
+    return m
 
 
 @lru_cache(maxsize=64)
