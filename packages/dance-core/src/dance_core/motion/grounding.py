@@ -512,6 +512,7 @@ def _pin_shifts(ankle: np.ndarray, hip: np.ndarray, contact: np.ndarray, blend: 
                 lift: np.ndarray, pin: np.ndarray) -> np.ndarray:
     """One foot's ``(T, 3)`` ankle shifts (see :func:`pin_shifts`; ``ankle``, ``hip``: ``(T, 3)`` positions;
     ``pin``: ``(T, 2)`` its pins, x and z)."""
+    contact = np.asarray(contact, bool)
     n = len(contact)
     shift = np.zeros((n, 3))
     runs = _runs(contact)
