@@ -216,6 +216,15 @@ def main() -> None:
             args.seconds)
 
 
+def seeded(recipe, seeds: int | None) -> list:
+    """A composer of ``recipe`` for each seed 0 .. seeds - 1 (the recipe's own seed alone when None)."""
+    from dance_core.api import Composer
+
+    if seeds is None:
+        return [Composer(recipe)]
+    return [Composer(recipe.model_copy(update={"seed": k})) for k in range(seeds)]
+
+
 def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None, recipe: str = "default",
             seconds: float | None = None, seeds: int | None = None) -> list[dict]:
     """For each song (its first ``seconds``), the live dance of ``recipe`` (``play(composer, song)`` gives
@@ -226,13 +235,11 @@ def compare(songs: list[Path], play, as_json: bool, extra: dict | None = None, r
 
     from dance_audio.beats import track_beats
     from dance_core import get_registry, load_audio
-    from dance_core.api import Composer, load_recipe
+    from dance_core.api import load_recipe
     from dance_core.motion import Motion
 
     torch.set_num_threads(1)
-    base = load_recipe(recipe)
-    composers = [Composer(base)] if seeds is None else [Composer(base.model_copy(update={"seed": k}))
-                                                         for k in range(seeds)]
+    composers = seeded(load_recipe(recipe), seeds)
     skeleton = composers[0].checkpoint.motion.skeleton
     names = skeleton.names
     rows, real = [], Realism()

@@ -62,7 +62,7 @@ def main() -> None:
 
     from dance_audio.beats import track_beats
     from dance_core import get_registry, load_audio
-    from dance_core.api import Composer, load_recipe
+    from dance_core.api import load_recipe
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--songs", nargs="+", type=Path, default=sorted(bench.AUDIO.glob("*.ogg")))
@@ -71,13 +71,12 @@ def main() -> None:
     parser.add_argument("--recipe", default="default")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    base = load_recipe(args.recipe)
+    composers = bench.seeded(load_recipe(args.recipe), args.seeds)
     rows = []
     print("song | seed | " + " | ".join(STAGES))
     for song in args.songs:
         beats = track_beats(load_audio(song, get_registry())).times
-        for seed in range(args.seeds):
-            composer = Composer(base.model_copy(update={"seed": seed}))
+        for seed, composer in enumerate(composers):
             row = stages(composer, song, args.seconds, beats)
             rows.append(row)
             print(f"{song.stem} | {seed} | " + " | ".join(f"{row[k]['locking']:.2f} ({row[k]['control']:.2f})"

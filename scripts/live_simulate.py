@@ -24,9 +24,11 @@ import live as bench  # noqa: E402  benchmarks/live.py: samples, compare
 
 
 def simulate(composer, song: Path, lookahead: float, model_lookahead: float | None = None,
-             seconds: float | None = None, generated: list | None = None) -> tuple[dict, list[dict]]:
+             seconds: float | None = None, generated: list | None = None,
+             max_rate: float | None = None) -> tuple[dict, list[dict]]:
     """A summary and frames as ``bench.live`` gives them, from the pipeline run without real time; the model's
-    own frames (normalized, before decoding) are appended to ``generated`` when it is given."""
+    own frames (normalized, before decoding) are appended to ``generated`` when it is given; ``max_rate``: the beat
+    lock's rate bound (default its ``MAX_RATE``)."""
     from dance_core.live.beat_lock import BeatClock
     from dance_core.live.features import LiveFeatures
     from dance_core.live.generator import LiveGenerator
@@ -44,6 +46,8 @@ def simulate(composer, song: Path, lookahead: float, model_lookahead: float | No
     clock = BeatClock(fps)
     poses = LivePoses(PoseDecoder(composer.checkpoint, composer.registry, fps), composer.recipe.compose.ground,
                       clock, lookahead)
+    if max_rate is not None and poses.lock is not None:
+        poses.lock.max_rate = max_rate
     frames, beat_rows = [], 0
     blocks = [y[lo : lo + 1024] for lo in range(0, len(y), 1024)]
     for block in [*blocks, None]:
@@ -85,12 +89,8 @@ def main() -> None:
     parser.add_argument("--max-rate", type=float, help="the beat lock's rate bound (default: beat_lock.MAX_RATE)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
-    if args.max_rate is not None:
-        from dance_core.live import beat_lock
-
-        beat_lock.MAX_RATE = args.max_rate
     bench.compare(args.songs, lambda composer, song: simulate(composer, song, args.lookahead, args.model_lookahead,
-                                                              args.seconds),
+                                                              args.seconds, max_rate=args.max_rate),
                   args.json, {"simulated": True, "lookahead": args.lookahead, "recipe": args.recipe,
                               "model_lookahead": args.model_lookahead, "max_rate": args.max_rate},
                   args.recipe, args.seconds, args.seeds)

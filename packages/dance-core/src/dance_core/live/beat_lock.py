@@ -15,7 +15,7 @@ its accents land on beats. Live, the same warp is run forward, one output frame 
   on :func:`~dance_core.motion.body.body_energy`, the rule offline alignment and the metrics use) over
   the last 6 s of generated frames, each known ``SETTLE`` frames after it;
 * **the warp** (:class:`BeatLock`): output frame ``j`` (music time ``j / fps``) shows the generated
-  dance at a source frame ``s <= j``, ``s`` advancing by a rate within ``[1 / MAX_RATE, MAX_RATE]``.
+  dance at a source frame ``s <= j``, ``s`` advancing by a rate within ``[1 / max_rate, max_rate]`` (:data:`MAX_RATE`).
   The dance plays ``LAG`` seconds behind the frames generated (it starts by holding its first pose
   that long), so accents are seen before they are played: the next accent is steered onto a beat it can
   reach within the rate bounds, the one that brings the lag nearest ``LAG`` (else the beat nearest
@@ -140,8 +140,8 @@ class BeatLock:
     generated frame (skipped frames hold the last), then ``pose(frame)`` for the output frame of the same
     index: ``(root, rotations, positions)`` of the dance at its source frame (``source``, ``lag``)."""
 
-    def __init__(self, skeleton: Skeleton, fps: float, clock: BeatClock):
-        self.skeleton, self.fps, self.clock = skeleton, float(fps), clock
+    def __init__(self, skeleton: Skeleton, fps: float, clock: BeatClock, max_rate: float = MAX_RATE):
+        self.skeleton, self.fps, self.clock, self.max_rate = skeleton, float(fps), clock, float(max_rate)
         self.accents = LiveAccents(skeleton, fps)
         self.planned: deque[float] = deque()  # accents (source frames) not yet played
         self.poses: deque[tuple] = deque(maxlen=int(round((MAX_LAG + 1.0) * self.fps)))
@@ -192,13 +192,13 @@ class BeatLock:
         accent = self.planned[0]
         ahead = accent - self.source  # source frames until the accent plays
         now = (j - 1) / self.fps
-        beats = self.clock.ahead(now, ahead * MAX_RATE / self.fps + self.clock.period)
+        beats = self.clock.ahead(now, ahead * self.max_rate / self.fps + self.clock.period)
         frames = beats * self.fps - (j - 1)
         beats, frames = beats[frames > 0], frames[frames > 0]
         if not len(beats):
             return None
         rates = ahead / frames
-        reachable = (rates >= 1 / MAX_RATE) & (rates <= MAX_RATE)
+        reachable = (rates >= 1 / self.max_rate) & (rates <= self.max_rate)
         if reachable.any():
             ideal = (accent + LAG * self.fps) / self.fps
             pick = np.flatnonzero(reachable)[np.argmin(np.abs(beats[reachable] - ideal))]
@@ -206,7 +206,7 @@ class BeatLock:
             pick = int(np.argmin(np.abs(beats - (now + ahead / self.fps))))
             if abs(beats[pick] - now - ahead / self.fps) > REACH * self.clock.period:
                 return None
-        return float(np.clip(rates[pick], 1 / MAX_RATE, MAX_RATE))
+        return float(np.clip(rates[pick], 1 / self.max_rate, self.max_rate))
 
     def _sample(self, source: float) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
         """The pose at fractional source frame ``source``: root and positions linear, rotations slerped."""
