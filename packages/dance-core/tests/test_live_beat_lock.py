@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from dance_core.evaluation.realism import on_beat
-from dance_core.live.beat_lock import MAX_LAG, MAX_RATE, BeatClock, BeatLock
+from dance_core.live.beat_lock import MAX_LAG, MAX_RATE, RATE_FLOOR, BeatClock, BeatLock
 from dance_core.motion.body import body_beats
 from dance_core.motion.motion import Motion
 from dance_core.motion.rotations import expmap_to_quat
@@ -75,6 +75,45 @@ def test_a_dance_pausing_off_the_beat_is_played_onto_it():
     rates = np.diff(np.maximum(sources, 0))[40:]
     assert rates.min() >= 1 / MAX_RATE - 1e-9 and rates.max() <= MAX_RATE + 1e-9 and rates.std() > 0.05
     assert max(lock.lags) <= MAX_LAG + 1e-9 and lock.accents.count > 40
+
+
+def pausing(seconds, seed):
+    """A dance24 dancer sweeping its arms round at a steady speed, pausing for 0.1 s every 0.8-1.3 s (at
+    random): its energy is flat between the pauses."""
+    n, rng = int(seconds * FPS), np.random.default_rng(seed)
+    speed, t = np.ones(n), 0.3
+    while t < seconds:
+        speed[int(t * FPS) : int(t * FPS) + 2] = 0.0
+        t += rng.uniform(0.8, 1.3)
+    angle = np.cumsum(speed) * 2 * np.pi * 0.8 / FPS
+    rot = np.zeros((n, 24, 3))
+    rot[:, L_SHOULDER, 1], rot[:, R_SHOULDER, 1] = angle, -angle  # the arms sweep round level
+    return Motion(dance24(), FPS, np.tile([0.0, 0.9, 0.0], (n, 1)), expmap_to_quat(rot))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_rate_eases_while_the_body_moves_steadily_and_turns_at_its_changes(seed):
+    seconds = 30.0
+    beats = 0.5 * np.arange(int(seconds / 0.5) + 4)
+    dance = pausing(seconds, seed)
+    names, positions = dance.skeleton.names, dance.positions()
+    clock = clock_of(beats, 0.55)
+    lock = BeatLock(dance.skeleton, FPS, clock)
+    out, steady, steps = [], [], []
+    for f in range(dance.n_frames):
+        tick(clock, beats, f + 11)
+        lock.push(f, dance.root[f], dance.rotations[f], positions[f])
+        rate, before = lock.rate, lock.source
+        out.append(lock.pose(f)[2])
+        if before >= 0 and f >= 40:
+            now, last = lock.accents.energy_at(before), lock.accents.energy_at(before - rate)
+            steady.append(abs(np.log(max(now, 1e-6) / max(last, 1e-6))) < 0.01)
+            steps.append(abs(np.log(lock.rate / rate)))
+    steady, steps = np.array(steady), np.array(steps)
+    assert steady.mean() > 0.5 and steps[steady].max() <= RATE_FLOOR + 1e-9  # eased where the body is steady
+    assert steps[~steady].max() > 3 * RATE_FLOOR  # free where its energy changes
+    played = body_beats(np.stack(out)[100:], FPS, names)
+    assert on_beat(played, beats[beats >= 5.0] - 5.0) > 0.4 > on_beat(body_beats(positions, FPS, names), beats)
 
 
 def test_the_clock_steers_to_settled_beats_once_the_tracker_gives_them():
