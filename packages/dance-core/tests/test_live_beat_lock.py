@@ -127,3 +127,15 @@ def test_the_clock_steers_to_settled_beats_once_the_tracker_gives_them():
     assert clock.period == pytest.approx(0.6)
     np.testing.assert_allclose(clock.ahead(9.0, 2.0), [9.25, 9.85, 10.45], atol=1e-9)  # heard beats kept
     np.testing.assert_allclose(clock.ahead(10.0, 1.5), [10.45, 11.05], atol=1e-9)  # then predicted past them
+
+
+def test_frames_skipped_are_held_and_the_accents_keep_their_frames():
+    dance = swinging(6.0)
+    positions = dance.positions()
+    lock = BeatLock(dance.skeleton, FPS, clock_of(0.5 * np.arange(20), 2.0))
+    for f in [*range(0, 60), *range(70, 100)]:  # frames 60-69 dropped
+        lock.push(f, dance.root[f], dance.rotations[f], positions[f])
+    held = lock._sample(65.0)[2]
+    np.testing.assert_allclose(held, positions[59])  # a dropped frame shows the last pose made
+    energy = [lock.accents.energy_at(k) for k in (62.0, 66.0)]
+    assert max(energy) < 0.05 * lock.accents.energy_at(50.0)  # the hold is a pause, at the frames it is played

@@ -181,6 +181,7 @@ class BeatLock:
         while self.newest >= 0 and self.newest + 1 < frame:
             self.poses.append(self.poses[-1])
             self.newest += 1
+            self.planned.extend(self.accents.push(self.newest, self.poses[-1][2]))  # the hold, frame by frame
         self.poses.append((np.asarray(root, np.float64), rotations, np.asarray(positions, np.float64)))
         self.newest = frame
         self.planned.extend(self.accents.push(frame, positions))
