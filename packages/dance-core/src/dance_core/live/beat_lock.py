@@ -13,7 +13,7 @@ its accents land on beats. Live, the same warp is run forward, one output frame 
   frame being generated, so the next beat or two are known, not guessed;
 * **accents** (:class:`LiveAccents`): the body's pauses (:func:`dance_core.motion.body.energy_minima`
   on :func:`~dance_core.motion.body.body_energy`, the rule offline alignment and the metrics use) over
-  the last 6 s of generated frames, each known ``SETTLE`` frames after it;
+  the last ``WINDOW`` (20) s of generated frames, each known ``SETTLE`` frames after it;
 * **the warp** (:class:`BeatLock`): output frame ``j`` (music time ``j / fps``) shows the generated
   dance at a source frame ``s <= j``, ``s`` advancing by a rate within ``[1 / max_rate, max_rate]`` (:data:`MAX_RATE`).
   The dance plays ``LAG`` seconds behind the frames generated (it starts by holding its first pose
