@@ -122,16 +122,16 @@ def load_lock(path: Path | None):
     return module.BeatLock
 
 
-def replay(path: Path, lock_class, skeleton, max_rate: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def replay(path: Path, fps: float, lock_class, skeleton, max_rate: float | None
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Root, rotations and positions of the dance ``lock_class`` plays from one recording, output frames from 0
     (those before the first pose asked for hold it), and the lock's rate at each."""
     from dance_core.live.beat_lock import BeatClock
 
     with np.load(path.with_suffix(".npz")) as stored:  # read once: an npz member is decompressed on each access
         data = {name: stored[name] for name in stored.files}
-    meta = json.loads(path.with_suffix(".json").read_text())
-    clock = BeatClock(meta["fps"])
-    lock = lock_class(skeleton, meta["fps"], clock)
+    clock = BeatClock(fps)
+    lock = lock_class(skeleton, fps, clock)
     if max_rate is not None:
         lock.max_rate = max_rate
     settled = np.split(data["settled"], np.cumsum(data["settled_sizes"])[:-1]) if len(data["settled_sizes"]) else []
@@ -161,8 +161,8 @@ def scores(path: Path, lock_class, skeleton, max_rate: float | None) -> dict:
     from dance_core.motion import Motion
 
     meta = json.loads(path.with_suffix(".json").read_text())
-    root, rotations, positions, rate = replay(path, lock_class, skeleton, max_rate)
     fps, beats = meta["fps"], np.array(meta["beats"])
+    root, rotations, positions, rate = replay(path, fps, lock_class, skeleton, max_rate)
     locked = bench.locking(positions, fps, skeleton.names, beats)
     motion = bench.floor_and_motion(Motion(skeleton, fps, root, rotations), beats)
     offline = meta["offline_floor_motion"]
