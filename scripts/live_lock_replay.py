@@ -8,10 +8,15 @@ replays these through a lock (today's, or the ``BeatLock`` of another file, e.g.
 ``beat_lock.py``) and gives the dance it plays exactly as the live pipeline would, scored against offline's:
 body locking and its wrong-tempo control, jerk, skating and speed over offline's, the 99th percentile of the
 per-frame jerk (m/s^3) and the share of frames played faster than 2x. ``--against FILE`` scores a second lock
-on the same inputs and gives the paired difference in locking with its standard error.
+on the same inputs and gives the paired difference in locking with its standard error. ``--oracle heard`` replaces
+the live tracker's beats with the offline tracker's (the whole song's) among those heard so far, the music up to
+the newest tracker row given to the clock, then extrapolated at their tempo; ``--oracle all`` with every offline
+beat: how well the lock would do if the live tracker placed beats as offline does (the lock's share of a
+shortfall, against the tracker's).
 
     python scripts/live_lock_replay.py record DIR --seeds 6 --seconds 60 --songs A.ogg B.wav ...
     python scripts/live_lock_replay.py score DIR [--max-rate 2.3] [--lock FILE.py] [--against FILE.py] [--seeds 0 1 2]
+        [--oracle heard|all]
 """
 
 from __future__ import annotations
@@ -122,15 +127,51 @@ def load_lock(path: Path | None):
     return module.BeatLock
 
 
-def replay(path: Path, fps: float, lock_class, skeleton, max_rate: float | None
+def oracle_clock(fps: float, beats: np.ndarray, heard_only: bool):
+    """A beat clock answering from the offline tracker's ``beats`` (s): those heard so far (up to the newest tracker
+    row given to it), then at their tempo (the median of their last intervals), with ``heard_only``; else all."""
+    from dance_core.live.beat_lock import SETTLED_TEMPO, BeatClock
+
+    class OracleClock(BeatClock):
+        latest = -np.inf  # the newest music time the tracker has given a row for
+
+        def update(self, frame: int, sin: float, cos: float) -> None:
+            super().update(frame, sin, cos)
+            self.latest = frame / self.fps
+
+        def known(self) -> np.ndarray:
+            return beats[beats <= self.latest] if heard_only else beats
+
+        @property
+        def period(self) -> float | None:
+            known = self.known()
+            return float(np.median(np.diff(known[-SETTLED_TEMPO:]))) if len(known) > 2 else None
+
+        def ahead(self, t: float, horizon: float) -> np.ndarray:
+            known, period = self.known(), self.period
+            if period is None:
+                return np.zeros(0)
+            extra = known[-1] + period * np.arange(1, int(np.ceil((t + horizon - known[-1]) / period)) + 1)
+            out = np.concatenate([known, extra])
+            return out[(out > t) & (out <= t + horizon)]
+
+    return OracleClock(fps)
+
+
+def replay(path: Path, fps: float, lock_class, skeleton, max_rate: float | None, oracle: str | None = None
            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Root, rotations and positions of the dance ``lock_class`` plays from one recording, output frames from 0
-    (those before the first pose asked for hold it), and the lock's rate at each."""
+    (those before the first pose asked for hold it), and the lock's rate at each; ``oracle`` (``heard`` or
+    ``all``): the offline beats instead of the live tracker's (:func:`oracle_clock`)."""
     from dance_core.live.beat_lock import BeatClock
 
     with np.load(path.with_suffix(".npz")) as stored:  # read once: an npz member is decompressed on each access
         data = {name: stored[name] for name in stored.files}
-    clock = BeatClock(fps)
+    if oracle is None:
+        clock = BeatClock(fps)
+    else:
+        beats = np.array(json.loads(path.with_suffix(".json").read_text())["beats"])
+        clock = oracle_clock(fps, beats, oracle == "heard")
     lock = lock_class(skeleton, fps, clock)
     if max_rate is not None:
         lock.max_rate = max_rate
@@ -156,13 +197,14 @@ def replay(path: Path, fps: float, lock_class, skeleton, max_rate: float | None
     return tuple(np.array([f[i] for f in frames]) for i in range(3)) + (rate,)
 
 
-def scores(path: Path, lock_class, skeleton, max_rate: float | None) -> dict:
-    """One recording replayed through ``lock_class`` and scored against the offline dance."""
+def scores(path: Path, lock_class, skeleton, max_rate: float | None, oracle: str | None = None) -> dict:
+    """One recording replayed through ``lock_class`` (on the offline beats with ``oracle``) and scored against the
+    offline dance."""
     from dance_core.motion import Motion
 
     meta = json.loads(path.with_suffix(".json").read_text())
     fps, beats = meta["fps"], np.array(meta["beats"])
-    root, rotations, positions, rate = replay(path, fps, lock_class, skeleton, max_rate)
+    root, rotations, positions, rate = replay(path, fps, lock_class, skeleton, max_rate, oracle)
     locked = bench.locking(positions, fps, skeleton.names, beats)
     motion = bench.floor_and_motion(Motion(skeleton, fps, root, rotations), beats)
     offline = meta["offline_floor_motion"]
@@ -174,7 +216,7 @@ def scores(path: Path, lock_class, skeleton, max_rate: float | None) -> dict:
 
 
 def score(args) -> None:
-    """Replay every recording in the directory (of the seeds asked for) and print the means."""
+    """Replay every recording in the directory (of the seeds asked for) and print the means, over all and per song."""
     from dance_core.api import Composer, load_recipe
 
     paths = sorted(p.with_suffix("") for p in args.dir.glob("*.json"))
@@ -185,11 +227,18 @@ def score(args) -> None:
     recipe = json.loads(paths[0].with_suffix(".json").read_text())["recipe"]
     skeleton = Composer(load_recipe(recipe)).checkpoint.motion.skeleton
     locks = [load_lock(args.lock)] + ([load_lock(args.against)] if args.against else [])
-    rows = [[scores(p, lock, skeleton, args.max_rate) for lock in locks] for p in paths]
+    rows = [[scores(p, lock, skeleton, args.max_rate, args.oracle) for lock in locks] for p in paths]
     for k, name in enumerate(("lock", "against")[: len(locks)]):
         mean = {key: float(np.nanmean([r[k][key] for r in rows])) for key in rows[0][k]}
         print(f"{name}: {len(rows)} dances; " + ", ".join(f"{key} {v:.3f}" for key, v in mean.items())
               + f"; share of offline's locking {mean['locking'] / mean['offline']:.3f}")
+        songs = sorted({p.name.rsplit("-", 1)[0] for p in paths})
+        for song in songs:
+            mine = [r[k] for r, p in zip(rows, paths, strict=True) if p.name.rsplit("-", 1)[0] == song]
+            live, offline, skating, jerk = (np.mean([r[key] for r in mine])
+                                            for key in ("locking", "offline", "skating", "jerk"))
+            print(f"  {song}: locking {live:.3f} against offline's {offline:.3f} ({live / offline:.0%}), "
+                  f"skating {skating:.2f}x, jerk {jerk:.2f}x")
     if args.against:
         diff = np.array([r[0]["locking"] - r[1]["locking"] for r in rows])
         error = diff.std(ddof=1) / np.sqrt(len(diff))
@@ -214,6 +263,8 @@ def main() -> None:
     sco.add_argument("--against", type=Path, help="a second beat_lock.py to compare with, paired")
     sco.add_argument("--max-rate", type=float, help="the lock's rate bound (default: its own)")
     sco.add_argument("--seeds", nargs="+", type=int, help="only these seeds' recordings")
+    sco.add_argument("--oracle", choices=("heard", "all"),
+                     help="steer to the offline tracker's beats: those heard so far, or all of them")
     args = parser.parse_args()
     record(args) if args.command == "record" else score(args)
 
