@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
 import threading
@@ -134,6 +135,39 @@ def test_an_audio_file_on_stdin_and_a_stream_that_stops_end_with_one_line_and_in
     assert proc.returncode == 1 and err.decode().strip().endswith("no audio for 1 s; the stream stopped")
     lines = [json.loads(line) for line in out.decode().splitlines()]
     assert "skeleton" in lines[0] and len(lines) > 5 and [f["frame"] for f in lines[1:]] == list(range(len(lines) - 1))
+
+
+def _live_mic(library: str, **env: str) -> subprocess.Popen:
+    """``dance live default --input mic --output - --json`` with ``library`` (a folder of this file's) standing in
+    for sounddevice."""
+    path = os.pathsep.join(p for p in (str(Path(__file__).parent / library), os.environ.get("PYTHONPATH")) if p)
+    return subprocess.Popen([*DANCE, "live", "default", "--input", "mic", "--output", "-", "--json"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env=dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=path, **env))
+
+
+def test_the_microphone_dances_as_it_records_until_ctrl_c():
+    """``--input mic`` through sounddevice (a stand-in device recording a 120-BPM click track at real time): frames
+    come as it records, the tracker finds the clicks' tempo, and Ctrl-C ends the session cleanly: every line
+    written whole, the summary counting the music heard (0 s before: it was counted only when a stream ended)."""
+    proc = _live_mic("fake_audio_device")
+    head = [proc.stdout.readline() for _ in range(1 + 80)]  # the skeleton and 4 s of frames at 20 fps
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0, err.decode()
+    lines = [json.loads(line) for line in (b"".join(head) + out).decode().splitlines()]
+    assert "skeleton" in lines[0] and [f["frame"] for f in lines[1:]] == list(range(len(lines) - 1))
+    summary = json.loads(err.decode()[err.decode().index("{"):])
+    assert summary["stopped"] == "interrupted" and summary["input"] == "mic" and summary["frames"] == len(lines) - 1
+    assert lines[-1]["t"] - 0.1 <= summary["music_seconds"] <= lines[-1]["t"] + 1.5  # the frames reach what was heard
+    assert summary["beat_lock"]["tempo_bpm"] == pytest.approx(120.0, abs=3.0)
+
+
+def test_no_input_device_or_no_audio_library_is_one_line_before_the_model_loads():
+    for library, env, why in (("fake_audio_device", {"FAKE_AUDIO_DEVICE": "none"}, "no usable input device"),
+                              ("no_audio_library", {}, "no audio input library; install it with pip install")):
+        out, err = _live_mic(library, **env).communicate(timeout=120)
+        assert out == b"" and err.decode().count("\n") == 1 and f"--input mic: {why}" in err.decode()
 
 
 def test_a_port_in_use_is_one_line_before_the_model_loads():

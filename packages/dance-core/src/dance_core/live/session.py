@@ -130,8 +130,8 @@ class LiveSession:
         begin = time.perf_counter()
         worker.start()
         failure: BaseException | None = None
+        samples = 0
         try:
-            samples = 0
             for block in self.source.blocks():
                 arrived = time.perf_counter()
                 samples += len(block)
@@ -145,13 +145,13 @@ class LiveSession:
             else:
                 self.inbox.put((self.features.finish(), self.features.take_beats(), self.features.settled_beats(),
                                 time.perf_counter()))
-            self.stats.music_seconds = samples / self.source.rate
         except KeyboardInterrupt:
             self.stats.stopped = "interrupted"
         except DanceError as exc:
             failure = exc
             self.stats.stopped = "input error"
         finally:
+            self.stats.music_seconds = samples / self.source.rate  # what was heard, however the session ended
             self.source.close()
             if self.control is not None:
                 self.control.shutdown()
