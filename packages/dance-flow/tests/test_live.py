@@ -163,7 +163,7 @@ def test_the_microphone_dances_as_it_records_until_ctrl_c():
     assert summary["beat_lock"]["tempo_bpm"] == pytest.approx(120.0, abs=3.0)
 
 
-def test_no_input_device_or_no_audio_library_is_one_line_before_the_model_loads():
+def test_no_input_device_or_no_audio_library_is_one_line_and_no_output():
     for library, env, why in (("fake_audio_device", {"FAKE_AUDIO_DEVICE": "none"}, "no usable input device"),
                               ("no_audio_library", {}, "no audio input library; install it with pip install")):
         out, err = _live_mic(library, **env).communicate(timeout=120)

@@ -37,7 +37,6 @@ LOOKAHEAD = 0.1
 DROP_SMOOTHING = (0.1, 0.2)
 
 
-
 class BufferedGrounding:
     """Frames in, each frame out ``lookahead`` seconds later, grounded by :func:`ground`'s own steps over a
     rolling buffer: the frames since half a ``floor_window`` before it and the ``lookahead`` after it.
@@ -55,10 +54,9 @@ class BufferedGrounding:
     row (``drop_smoothing``: their time constants in seconds while the drop grows and while it shrinks; None:
     no drop), decided once, so the pelvis does not jump with what the buffer's end shows; the ankles of
     pinned feet are held where they were, and a foot not pinned keeps its height, its knee bending under the
-    lowered pelvis. ``push(root (3,), rotations (J, 4))`` returns the
-    grounded frame ``delay`` frames back as ``(root, rotations, positions)``, or None while the buffer fills
-    (``peek()`` gives the first frame grounded on what has arrived). A skeleton without recognisable feet
-    passes through (after the same delay)."""
+    lowered pelvis. ``push(root (3,), rotations (J, 4))`` returns the grounded frame ``delay`` frames back as
+    ``(root, rotations, positions)``, or None while the buffer fills (``peek()`` gives the first frame grounded
+    on what has arrived). A skeleton without recognisable feet passes through (after the same delay)."""
 
     def __init__(self, skeleton: Skeleton, fps: float, lookahead: float = LOOKAHEAD,
                  options: GroundingOptions | None = None,
