@@ -142,10 +142,11 @@ def _live_mic(library: str, **env: str) -> subprocess.Popen:
     for sounddevice; Ctrl-C (SIGINT) reaches it as from a terminal, even where this test runs as a background job
     (whose children start with SIGINT ignored, and Python then leaves it so)."""
     path = os.pathsep.join(p for p in (str(Path(__file__).parent / library), os.environ.get("PYTHONPATH")) if p)
-    return subprocess.Popen([*DANCE, "live", "default", "--input", "mic", "--output", "-", "--json"],
+    run = ("import runpy, signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
+           "sys.argv = ['dance', *sys.argv[1:]]; runpy.run_module('dance_core.cli.main', run_name='__main__')")
+    return subprocess.Popen([sys.executable, "-c", run, "live", "default", "--input", "mic", "--output", "-", "--json"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            env=dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=path, **env),
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+                            env=dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=path, **env))
 
 
 @pytest.mark.parametrize("stop, seconds", [(signal.SIGINT, 4), (signal.SIGTERM, 2)])
