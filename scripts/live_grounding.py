@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib.util
 import sys
 from pathlib import Path
 
@@ -21,19 +20,17 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import live as bench  # noqa: E402  benchmarks/live.py: floor_and_motion, AUDIO
+from live_lock_replay import load_class  # noqa: E402  this folder's
 
 
 def knee_bend(motion) -> float:
-    """The median over frames of both knees' mean flexion (degrees; 0 straight), on a skeleton with ``L_Hip``,
-    ``L_Knee``, ``L_Ankle`` and their right-hand twins."""
-    p, index = motion.positions(), motion.skeleton.names.index
-    bends = []
-    for side in "LR":
-        up = p[:, index(f"{side}_Hip")] - p[:, index(f"{side}_Knee")]
-        down = p[:, index(f"{side}_Ankle")] - p[:, index(f"{side}_Knee")]
-        cos = (up * down).sum(-1) / np.linalg.norm(up, axis=-1) / np.linalg.norm(down, axis=-1)
-        bends.append(180.0 - np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
-    return float(np.median(np.mean(bends, axis=0)))
+    """The median over frames of both knees' mean flexion (degrees; 0 straight), as the realism statistics
+    measure it (:func:`dance_core.evaluation.realism.frame_measures`)."""
+    from dance_core.evaluation.realism import frame_measures
+    from dance_core.motion.body import Body
+
+    measures = frame_measures(motion.positions(), motion.fps, Body.of(motion.skeleton.names, "grounded dance"), 1.0)
+    return float(np.median(measures["knee_bend"]))
 
 
 def grounded_live(grounding_class, composer, frames: np.ndarray, **options):
@@ -51,14 +48,6 @@ def grounded_live(grounding_class, composer, frames: np.ndarray, **options):
             roots.append(out[0])
             rotations.append(out[1])
     return Motion(decoder.skeleton, decoder.fps, np.array(roots), np.array(rotations))
-
-
-def load_grounding(path: Path):
-    """``BufferedGrounding`` of a file (``buffered_grounding.py`` of another revision)."""
-    spec = importlib.util.spec_from_file_location(f"grounding_{abs(hash(str(path)))}", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.BufferedGrounding
 
 
 def main() -> None:
@@ -79,7 +68,7 @@ def main() -> None:
     torch.set_num_threads(1)
     variants = {"live": (BufferedGrounding, {}), "live without the drop": (BufferedGrounding, {"drop_smoothing": None})}
     if args.against:
-        variants[f"live, {args.against.name}"] = (load_grounding(args.against), {})
+        variants[f"live, {args.against.name}"] = (load_class(args.against, "BufferedGrounding"), {})
     rows: dict[str, list] = {}
     for song in args.songs:
         for seed in range(args.seeds):

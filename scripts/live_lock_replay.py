@@ -115,16 +115,21 @@ def record(args) -> None:
             print(dest.name, flush=True)
 
 
+def load_class(path: Path, name: str):
+    """The class ``name`` of a Python file (a module of another revision, e.g. its ``beat_lock.py``)."""
+    spec = importlib.util.spec_from_file_location(f"revision_{abs(hash(str(path)))}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return getattr(module, name)
+
+
 def load_lock(path: Path | None):
     """``BeatLock`` of a file (``beat_lock.py`` of another revision), or today's."""
     if path is None:
         from dance_core.live.beat_lock import BeatLock
 
         return BeatLock
-    spec = importlib.util.spec_from_file_location(f"lock_{abs(hash(str(path)))}", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.BeatLock
+    return load_class(path, "BeatLock")
 
 
 def oracle_clock(fps: float, beats: np.ndarray, heard_only: bool):

@@ -140,11 +140,11 @@ class BufferedGrounding:
         # grounded live and offline) skating 0.527 m/s against offline's 0.460 (default) and 0.242 against 0.176
         # (tm2d-small); held, 0.471 and 0.192, jerk 92 and 113 m/s^3 against 94 and 122 (offline 92 and 112), knees
         # 47.9 and 54.9 degrees against 46.9 and 54.5 (offline 44.8 and 52.4), the pelvis' vertical jerk unchanged
-        if drop > 0:
+        if drop > 0:  # each ankle's target from the lowered body, raised by the part of the drop its pin does not hold
             ankles = pos[index, list(feet[::2])] - np.array([0.0, drop, 0.0])
-            reached = ankles + weight[:, None] * (target - ankles)
-            for f in np.flatnonzero(weight < 1):
-                weight[f], target[f] = 1.0, reached[f] + np.array([0.0, (1.0 - weight[f]) * drop, 0.0])
+            target = ankles + weight[:, None] * (target - ankles)
+            target[:, 1] += (1.0 - weight) * drop
+            weight = np.ones_like(weight)
         if not weight.any():
             lowered = pos[index].copy()
             lowered[:, 1] -= drop
