@@ -288,3 +288,35 @@ def test_beat_locked_poses_are_grounded_with_a_look_ahead_inside_the_lag(compose
     motion = Motion(poses.decoder.skeleton, fps, np.stack([p.root for p in out]), np.stack([p.rotations for p in out]))
     h = soles(motion)
     assert np.mean(h.min(1) > 0.05) < 0.02 and h.min() > -0.01
+
+
+def test_the_figure_stands_at_rest_while_the_music_is_silent_and_dances_when_it_plays(composer, tmp_path):
+    """Four seconds of silence, then music: the figure comes to rest standing (the model dances on beneath) and
+    dances with the music; with ``silence=None`` (``--silence off``) it dances through the silence."""
+    import io
+
+    import soundfile as sf
+
+    from dance_core.data.features import load_audio
+    from dance_core.live.session import LiveSession
+    from dance_core.live.sinks import JsonLinesSink
+    from dance_core.live.sources import FileSource
+
+    music = load_audio(AUDIO / "hungarian_dance_5.ogg", composer.registry)
+    song = np.concatenate([np.zeros(4 * music.rate, np.float32), music.samples[: 4 * music.rate]])
+    path = tmp_path / "pause.wav"
+    sf.write(path, song, music.rate)
+    speeds, summaries = [], []
+    for silence in (-60.0, None):
+        out = io.BytesIO()
+        out.close = lambda: None  # read after the session
+        source = FileSource(str(path), composer.registry, composer.recipe.format_options, speed=6.0)
+        summaries.append(LiveSession(composer, source, [JsonLinesSink(out)], max_lag=60, silence=silence).run())
+        frames = [json.loads(line) for line in out.getvalue().decode().splitlines()[1:]]
+        p = np.array([f["positions"] for f in frames])
+        speeds.append(np.linalg.norm(np.diff(p, axis=0), axis=2).max(1) * composer.recipe.fps)
+    fps = composer.recipe.fps
+    pause, playing = slice(int(1.6 * fps), int(3.7 * fps)), slice(int(4.2 * fps), None)
+    assert speeds[0][pause].max() < 1e-6 and summaries[0]["silence"]["rested_s"] > 2.0  # still
+    assert speeds[1][pause].mean() > 0.1 and summaries[1]["silence"] is None  # off: it dances on
+    assert speeds[0][playing].mean() > 0.3  # and dances when the music plays

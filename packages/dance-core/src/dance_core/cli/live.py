@@ -49,12 +49,21 @@ def add_parser(subparsers) -> None:
                    help="seconds of music a song-level model (tm2d-small) waits for past a token (default: the "
                         "model's own, 0 for tm2d-small; its whole reach, 6.4 s, gives compose's tokens for the same "
                         "features)")
+    p.add_argument("--silence", type=_silence_level, default=-60.0, metavar="DBFS",
+                   help="audio below this level, or 40 dB below the loudest second heard, for half a second is "
+                        "silence: the figure comes to rest, standing, and dances again as the music returns; off: "
+                        "it dances on (default: -60)")
     p.add_argument("--open", action="store_true", help="open the live page of the ws:// output in a browser")
     p.add_argument("--json", action="store_true",
                    help="print a JSON summary at the end: latency distribution, drops (on stderr when --output -)")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="FIELD=VALUE",
                    help="override a recipe field, e.g. --set compose.temperature=0.5 (repeatable)")
     p.set_defaults(run=run)
+
+
+def _silence_level(text: str) -> float | None:
+    """``--silence``: a level in dBFS from -120 to 0, or ``off`` (None)."""
+    return None if text == "off" else bounded_number(float, -120.0, 0.0, unit="dBFS")(text)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -85,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
         if isinstance(source, PcmSource):
             source.idle = args.idle
         session = LiveSession(Composer(recipe, args.checkpoint), source, sinks, args.seed_motion, args.max_lag,
-                              args.texts, control, args.lookahead)
+                              args.texts, control, args.lookahead, args.silence)
     except BaseException:
         for sink in sinks:
             sink.shutdown()

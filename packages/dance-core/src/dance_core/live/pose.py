@@ -21,6 +21,7 @@ import numpy as np
 from dance_core.checkpoint import Checkpoint
 from dance_core.errors import DataError
 from dance_core.live.beat_lock import BeatClock, BeatLock
+from dance_core.live.rest import RestBlend
 from dance_core.motion.buffered_grounding import LOOKAHEAD, BufferedGrounding
 from dance_core.motion.causal_grounding import CausalGrounding
 from dance_core.motion.rotations import quat_mul, quat_rotate, yaw_quat
@@ -97,11 +98,19 @@ class LivePoses:
     (:class:`~dance_core.motion.buffered_grounding.BufferedGrounding`, the whole dance's steps on a rolling
     buffer) at no cost in latency: the lock never plays a frame before its grounding is done; without the lock
     each pose is grounded from itself and the ones before it
-    (:class:`~dance_core.motion.causal_grounding.CausalGrounding`). ``note`` says what could not be done."""
+    (:class:`~dance_core.motion.causal_grounding.CausalGrounding`). With ``rest``, each pose is last blended
+    toward standing at ease by the rest weight it is given (:class:`~dance_core.live.rest.RestBlend`).
+    ``note`` and ``rest_note`` say what could not be done."""
 
     def __init__(self, decoder: PoseDecoder, ground: bool = True, clock: BeatClock | None = None,
-                 lookahead: float = LOOKAHEAD):
-        self.decoder, self.scale, self.note = decoder, decoder.scale, ""
+                 lookahead: float = LOOKAHEAD, rest: bool = False):
+        self.decoder, self.scale, self.note, self.rest_note = decoder, decoder.scale, "", ""
+        self.rest = None
+        if rest:
+            try:
+                self.rest = RestBlend(decoder.skeleton)
+            except DataError as exc:
+                self.rest_note = f"no rest in silence: {exc}"
         self.lock = None
         if clock is not None:
             try:
@@ -123,20 +132,25 @@ class LivePoses:
             return self.grounding.delay / self.decoder.fps
         return 0.0
 
-    def __call__(self, index: int, frame: np.ndarray) -> Pose:
-        """The pose for music frame ``index`` from the model's frame of that index."""
+    def __call__(self, index: int, frame: np.ndarray, rest: float = 0.0) -> Pose:
+        """The pose for music frame ``index`` from the model's frame of that index, at rest weight ``rest``."""
         root, rotations, positions = self.decoder.decode(frame)
         made = index  # the generated frame the pose (root, rotations, positions) is of
         if isinstance(self.grounding, BufferedGrounding) and rotations is not None:
             self.indices.append(index)  # the frame given back is the one pushed `delay` calls ago (drops skip indices)
             grounded = self.grounding.push(root, rotations)
             if grounded is None:  # the lock holds the first pose meanwhile
-                root, rotations, positions = self.grounding.peek()
-                return Pose(root * self.scale, rotations, positions * self.scale)
+                return self._shown(*self.grounding.peek(), rest)
             made, (root, rotations, positions) = self.indices[0], grounded
         elif self.grounding is not None and rotations is not None:
             root, rotations, positions = self.grounding(root, rotations)
         if self.lock is not None:  # as offline: the accents of the feet as they will be seen
             self.lock.push(made, root, rotations, positions)
             root, rotations, positions = self.lock.pose(index)
+        return self._shown(root, rotations, positions, rest)
+
+    def _shown(self, root: np.ndarray, rotations: np.ndarray | None, positions: np.ndarray, rest: float) -> Pose:
+        """The pose as sent (metres), blended toward rest."""
+        if self.rest is not None and rotations is not None:
+            root, rotations, positions = self.rest(root, rotations, positions, rest)
         return Pose(root * self.scale, rotations, positions * self.scale)

@@ -30,6 +30,7 @@ from dance_core.live.beat_lock import BeatClock
 from dance_core.live.features import LiveFeatures
 from dance_core.live.generator import LiveGenerator
 from dance_core.live.pose import LivePoses, Pose, PoseDecoder
+from dance_core.live.silence import FLOOR_DB, SilenceGate
 from dance_core.live.texts import LiveTexts, parse_command
 
 #: seconds generation may fall behind the music it could step on before it drops frames
@@ -85,7 +86,8 @@ class LiveSession:
     consumer gone) and returns the summary."""
 
     def __init__(self, composer, source, sinks: list, seed_motion: str | None = None, max_lag: float = MAX_LAG,
-                 texts: list[str] = (), control=None, lookahead: float | None = None):
+                 texts: list[str] = (), control=None, lookahead: float | None = None,
+                 silence: float | None = FLOOR_DB):
         from dance_core.runtime import generation_threads
 
         self.composer, self.source, self.sinks = composer, source, sinks
@@ -110,7 +112,8 @@ class LiveSession:
         self.decoder = PoseDecoder(composer.checkpoint, composer.registry, self.fps)
         tracked = self.features.beat_part is not None or self.features.tracker is not None
         self.clock = BeatClock(self.fps) if recipe.compose.beat_align and tracked else None
-        self.poses = LivePoses(self.decoder, recipe.compose.ground, self.clock)
+        self.poses = LivePoses(self.decoder, recipe.compose.ground, self.clock, rest=silence is not None)
+        self.gate = SilenceGate(self.fps, source.rate, silence if self.poses.rest is not None else None)
         self.beat_frames = 0  # beat tracker rows given to the clock
         self.threads = generation_threads(composer.model, 1, composer.device, recipe.compose.threads)
         self.max_lag = max(1, int(round(max_lag * self.fps)))
@@ -135,6 +138,7 @@ class LiveSession:
             for block in self.source.blocks():
                 arrived = time.perf_counter()
                 samples += len(block)
+                self.gate.push(block)  # before the features: a frame's level is known when the frame is
                 self.inbox.put((self.features.push(block), self.features.take_beats(), self.features.settled_beats(),
                                 arrived))
                 if self.stop.is_set():
@@ -181,6 +185,7 @@ class LiveSession:
             "threads": self.threads, "outputs": {s.name: s.stats() for s in self.sinks},
             "grounded": self.poses.grounding is not None, "grounding_lookahead_s": round(self.poses.lookahead, 4),
             "beat_lock": self._lock_summary(),
+            "silence": self._silence_summary(),
             **({"texts": list(self.text_log)} if self.texts is not None else {}),
         })
 
@@ -230,6 +235,13 @@ class LiveSession:
         return {"accents": lock.accents.count, "tempo_bpm": round(60.0 / self.clock.period, 1) if self.clock.period
                 else None, "lag_s": {"mean": round(float(lag.mean()), 3), "max": round(float(lag.max()), 3)}}
 
+    def _silence_summary(self) -> dict[str, Any] | None:
+        if self.poses.rest_note:
+            return {"note": self.poses.rest_note}
+        if self.gate.floor is None:
+            return None
+        return {"floor_dbfs": self.gate.floor, "rested_s": round(self.gate.rested / self.fps, 2)}
+
     def _generate(self) -> None:
         """The generation thread: take feature frames, step the model, hand poses to the sinks."""
         import torch
@@ -278,7 +290,8 @@ class LiveSession:
                 self.clock.settle(settled)
 
     def _emit(self, index: int, frame: np.ndarray, first: bool = True) -> None:
-        message = frame_message(index, self.fps, self.poses(index, frame))
+        rest = self.gate.weight(index, self.generator.newest(index) - 1)
+        message = frame_message(index, self.fps, self.poses(index, frame, rest))
         for sink in self.sinks:
             sink.send(message)
         newest = min(self.generator.newest(index), len(self.arrivals) - 1)
