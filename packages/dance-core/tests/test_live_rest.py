@@ -102,7 +102,7 @@ def test_silence_is_quiet_against_the_loudest_second_heard_and_off_means_never()
     assert loud[-1] == 1.0 and loud[: int(3 * FPS)].max() == 0.0
     gate = SilenceGate(FPS, RATE, None)
     gate.push(np.zeros(RATE * 3, np.float32))
-    assert gate.weight(40, 48) == 0.0 and FLOOR_DB == -60.0
+    assert gate.weight(40, 48) == 0.0 and FLOOR_DB == -70.0
 
 
 def _travelling(n: int, skeleton) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -307,7 +307,7 @@ def test_the_figure_stands_at_rest_while_the_music_is_silent_and_dances_when_it_
     path = tmp_path / "pause.wav"
     sf.write(path, song, music.rate)
     speeds, summaries = [], []
-    for silence in (-60.0, None):
+    for silence in (-70.0, None):
         out = io.BytesIO()
         out.close = lambda: None  # read after the session
         source = FileSource(str(path), composer.registry, composer.recipe.format_options, speed=6.0)
@@ -316,7 +316,9 @@ def test_the_figure_stands_at_rest_while_the_music_is_silent_and_dances_when_it_
         p = np.array([f["positions"] for f in frames])
         speeds.append(np.linalg.norm(np.diff(p, axis=0), axis=2).max(1) * composer.recipe.fps)
     fps = composer.recipe.fps
-    pause, playing = slice(int(1.6 * fps), int(3.7 * fps)), slice(int(4.2 * fps), None)
+    from dance_core.live.silence import AHEAD, EASE_IN, HOLD
+
+    pause, playing = slice(int((HOLD + EASE_IN) * fps), int((4.0 - AHEAD) * fps) - 1), slice(int(4.2 * fps), None)
     assert speeds[0][pause].max() < 1e-6 and summaries[0]["silence"]["rested_s"] > 2.0  # still
     assert speeds[1][pause].mean() > 0.1 and summaries[1]["silence"] is None  # off: it dances on
     assert speeds[0][playing].mean() > 0.3  # and dances when the music plays

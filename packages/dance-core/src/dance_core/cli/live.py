@@ -49,10 +49,10 @@ def add_parser(subparsers) -> None:
                    help="seconds of music a song-level model (tm2d-small) waits for past a token (default: the "
                         "model's own, 0 for tm2d-small; its whole reach, 6.4 s, gives compose's tokens for the same "
                         "features)")
-    p.add_argument("--silence", type=_silence_level, default=-60.0, metavar="DBFS",
+    p.add_argument("--silence", type=_silence_level, default=-70.0, metavar="DBFS",
                    help="audio below this level, or 40 dB below the loudest second heard, for half a second is "
                         "silence: the figure comes to rest, standing, and dances again as the music returns; off: "
-                        "it dances on (default: -60)")
+                        "it dances on (default: -70)")
     p.add_argument("--open", action="store_true", help="open the live page of the ws:// output in a browser")
     p.add_argument("--json", action="store_true",
                    help="print a JSON summary at the end: latency distribution, drops (on stderr when --output -)")

@@ -18,11 +18,11 @@ import math
 import numpy as np
 
 #: dBFS below which audio is silence, and how far below the loudest second heard it is silence too
-FLOOR_DB, RANGE_DB = -60.0, 40.0
+FLOOR_DB, RANGE_DB = -70.0, 40.0
 #: seconds of silence before a frame, and after it, for the figure to rest there
-HOLD, AHEAD = 0.5, 0.25
+HOLD, AHEAD = 0.5, 0.4
 #: seconds the figure takes to come to rest, and to dance again
-EASE_IN, EASE_OUT = 1.0, 0.4
+EASE_IN, EASE_OUT = 1.0, 0.6
 
 
 class SilenceGate:
