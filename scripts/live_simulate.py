@@ -2,9 +2,10 @@
 run: the dance's quality (beat locking, floor and motion against the offline dance) free of the machine's load.
 
 Each song's samples go through 16-bit PCM (as ``benchmarks/live.py`` pipes them into ``dance live``), then in
-blocks of 1024 through the live features; the beat tracker's rows reach the beat
-clock as their audio arrives (ahead of the frames generated, as in a session); the model steps as soon as its
-music is known and every frame is posed (``LivePoses``: grounding, beat lock). No latency, no drops.
+blocks of 1024 through the live features; the beat tracker's rows and settled beats reach the beat
+clock through the session's ``BeatFeed`` (up to the music each frame waited for: the same dance as a session
+gives, however its audio arrives); the model steps as soon as its music is known and every frame is posed
+(``LivePoses``: grounding, beat lock). No latency, no drops.
 ``--lookahead S`` sets the grounding's look-ahead (0: the causal grounding), to compare.
 
     python scripts/live_simulate.py [--lookahead 0.25] [--songs A.ogg B.ogg] [--json]
@@ -29,7 +30,7 @@ def simulate(composer, song: Path, lookahead: float, model_lookahead: float | No
     """A summary and frames as ``bench.live`` gives them, from the pipeline run without real time; the model's
     own frames (normalized, before decoding) are appended to ``generated`` when it is given; ``max_rate``: the beat
     lock's rate bound (default its ``MAX_RATE``)."""
-    from dance_core.live.beat_lock import BeatClock
+    from dance_core.live.beat_lock import BeatClock, BeatFeed
     from dance_core.live.features import LiveFeatures
     from dance_core.live.generator import LiveGenerator
     from dance_core.live.pose import LivePoses, PoseDecoder
@@ -48,16 +49,11 @@ def simulate(composer, song: Path, lookahead: float, model_lookahead: float | No
                       clock, lookahead)
     if max_rate is not None and poses.lock is not None:
         poses.lock.max_rate = max_rate
-    frames, beat_rows = [], 0
+    frames, feed = [], BeatFeed(clock)
     blocks = [y[lo : lo + 1024] for lo in range(0, len(y), 1024)]
     for block in [*blocks, None]:
         streams = features.push(block) if block is not None else features.finish()
-        for row in features.take_beats():
-            clock.update(beat_rows, float(row[2]), float(row[3]))
-            beat_rows += 1
-        settled = features.settled_beats()
-        if settled is not None:
-            clock.settle(settled)
+        feed.add(features.take_beats(), features.take_settled())
         generator.add(streams)
         if block is None:
             generator.end()
@@ -66,6 +62,7 @@ def simulate(composer, song: Path, lookahead: float, model_lookahead: float | No
             for offset, frame in enumerate(generator.step()):
                 if generated is not None:
                     generated.append(np.asarray(frame, np.float32))
+                feed.advance(generator.newest(first + offset))
                 frames.append(frame_message(first + offset, fps, poses(first + offset, frame)))
     lag = np.asarray(poses.lock.lags) if poses.lock is not None else np.zeros(1)
     summary = {"fps": fps, "music_seconds": len(y) / bench.RATE, "frames": len(frames), "dropped_frames": 0,

@@ -85,3 +85,24 @@ def test_settled_beats_are_the_offline_decoding_of_what_was_heard():
             offline = decode_beats(p[:k], 55.0, 160.0) / FPS
             kept = offline[offline >= settled.times.min() - 1e-9]
             assert len(settled.times) > 10 and np.array_equal(settled.times, kept)
+
+
+def test_each_placing_of_the_settled_beats_is_given_once_with_when_whatever_the_blocks(make_clicks):
+    from dance_audio.online_beats import SETTLE_EVERY
+
+    audio = make_clicks(np.arange(0.5, 12.0, 0.5), 12.0)
+    takes = {}
+    for block in (300, 2205, 30000):
+        live, traces = OnlineBeats(20.0, audio.rate, [4], 55.0, 160.0), []
+        for lo in range(0, len(audio.samples), block):
+            live.push(audio.samples[lo : lo + block])
+            traces += live.take_settled()
+            if traces:
+                assert np.array_equal(traces[-1][1], live.settled_beats())  # the latest is the one in force
+        assert live.take_settled() == []  # each given once
+        takes[block] = traces
+    heard = [t for t, _ in takes[300]]
+    assert np.allclose(np.diff(heard), SETTLE_EVERY, atol=0.011) and 11.5 < heard[-1] <= 12.0
+    for block in (2205, 30000):  # the same placings, at the same points of the music, however the audio came
+        assert [t for t, _ in takes[block]] == heard
+        assert all(np.array_equal(a, b) for (_, a), (_, b) in zip(takes[block], takes[300], strict=True))

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from dance_core.evaluation.realism import on_beat
-from dance_core.live.beat_lock import MAX_LAG, MAX_RATE, RATE_FLOOR, BeatClock, BeatLock
+from dance_core.live.beat_lock import MAX_LAG, MAX_RATE, RATE_FLOOR, BeatClock, BeatFeed, BeatLock
 from dance_core.motion.body import body_beats
 from dance_core.motion.motion import Motion
 from dance_core.motion.rotations import expmap_to_quat
@@ -139,3 +139,31 @@ def test_frames_skipped_are_held_and_the_accents_keep_their_frames():
     np.testing.assert_allclose(held, positions[59])  # a dropped frame shows the last pose made
     energy = [lock.accents.energy_at(k) for k in (62.0, 66.0)]
     assert max(energy) < 0.05 * lock.accents.energy_at(50.0)  # the hold is a pause, at the frames it is played
+
+
+def test_the_feed_tells_the_clock_only_what_the_music_up_to_a_frame_told():
+    """Rows and settled beats reach the clock for the music up to the newest frame a posed frame waited for,
+    whatever arrived before: the same song gives the same clock, however far the audio ran ahead."""
+    beats = 0.1 + 0.5 * np.arange(40)
+    phase = [(t - beats[np.searchsorted(beats, t, "right") - 1]) / 0.5 for t in np.arange(300) / FPS]
+    rows = np.zeros((300, 6))
+    rows[:, 2], rows[:, 3] = np.sin(2 * np.pi * np.array(phase)), np.cos(2 * np.pi * np.array(phase))
+    traces = [(k * 0.25, beats[beats < k * 0.25 - 0.3]) for k in range(1, 60)]
+
+    def fed(chunks: int) -> list[tuple[float, int, int]]:
+        clock, seen = BeatClock(FPS), []
+        feed, step = BeatFeed(clock), 300 // chunks
+        for lo in range(0, 300, step):  # the audio arrives in `chunks` pieces, ahead of the frames posed
+            feed.add(rows[lo : lo + step], [t for t in traces if lo / FPS < t[0] <= (lo + step) / FPS])
+            for newest in range(max(0, lo - 40), lo + step - 40):
+                feed.advance(newest)
+                seen.append((clock.phase, len(clock.beats), len(clock.settled)))
+                assert clock.settled.size == 0 or clock.settled.max() < newest / FPS
+        return seen
+
+    assert fed(1)[:100] == fed(30)[:100] == fed(300)[:100]
+    clock = BeatClock(FPS)
+    feed = BeatFeed(clock)
+    feed.add(rows[:100], [(None, beats[:5])])  # a trace with no time: at once
+    feed.advance(10)
+    assert len(clock.settled) == 5 and clock.phase == pytest.approx(phase[10] % 1.0)

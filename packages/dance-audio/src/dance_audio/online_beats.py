@@ -175,6 +175,8 @@ class SettledBeats:
         self.p = np.zeros(size)  # ring: the activations
         self.count = 0  # tracker frames pushed
         self.times = np.zeros(0)
+        #: (seconds heard, beats) of each trace not yet taken (the last 256: a minute's)
+        self.traces: deque[tuple[float, np.ndarray]] = deque(maxlen=256)
 
     def push(self, p: float) -> None:
         """The next tracker frame's activation; traces the beats back when due."""
@@ -192,6 +194,7 @@ class SettledBeats:
         self.count += 1
         if self.count % round(SETTLE_EVERY * FPS) == 0:
             self.times = self._trace()
+            self.traces.append((self.count / FPS, self.times))
 
     def _trace(self) -> np.ndarray:
         """The beats of the best path ending now, over the frames still in the ring."""
@@ -249,6 +252,14 @@ class OnlineBeats:
         """The beats heard so far placed with hindsight (s; :class:`SettledBeats`), those of the last
         :data:`SETTLE_WINDOW` s."""
         return self.settled.times
+
+    def take_settled(self) -> list[tuple[float, np.ndarray]]:
+        """Each placing of the settled beats since the last call, in order: ``(seconds of the stream the beats
+        were placed with, beats in seconds)``, so a consumer can use each from a point of the music on,
+        however the audio was split into blocks."""
+        traces = list(self.settled.traces)
+        self.settled.traces.clear()
+        return traces
 
     def push(self, samples: np.ndarray) -> np.ndarray:
         """Frames completed by the next block of mono float samples at the stream's rate."""

@@ -10,7 +10,9 @@ its accents land on beats. Live, the same warp is run forward, one output frame 
   0.25 s), those are used instead: the dance plays over a second behind the music heard, so the beats it
   is steered to have been heard with a second or more after them, which the phase (the forward pass)
   cannot use. The tracker has heard the music ``music_delay`` (0.556 s for the bundled model) past the
-  frame being generated, so the next beat or two are known, not guessed;
+  frame being generated, so the next beat or two are known, not guessed. What the tracker says reaches the
+  clock through :class:`BeatFeed`, up to the music the frame being posed waited for and no further, so the
+  dance does not depend on how far the audio has run ahead of the model;
 * **accents** (:class:`LiveAccents`): the body's pauses (:func:`dance_core.motion.body.energy_minima`
   on :func:`~dance_core.motion.body.body_energy`, the rule offline alignment and the metrics use) over
   the last ``WINDOW`` (20) s of generated frames, each known ``SETTLE`` frames after it;
@@ -117,6 +119,38 @@ class BeatClock:
         extra = last + period * np.arange(1, int(np.ceil((t + horizon - last) / period)) + 1)
         out = np.concatenate([known, extra[extra > t]])
         return out[out <= t + horizon]
+
+
+class BeatFeed:
+    """The tracker's output held back until the frame it may inform: ``add(rows, traces)`` as the audio arrives
+    (phase rows, one per music frame; settled beats as ``(seconds heard, beats)``), ``advance(newest)`` before a
+    frame is posed gives the clock the rows of music frames up to ``newest`` and the settled beats placed with
+    the music to ``newest / fps`` (a trace whose time is unknown, None, at once). The frame waited for the music
+    to ``newest``, so all of that has arrived, and the clock sees the same however the audio was split into
+    blocks or how far it ran ahead of the model: the same song gives the same dance."""
+
+    def __init__(self, clock: BeatClock):
+        self.clock = clock
+        self.rows: deque[tuple[int, float, float]] = deque()
+        self.traces: deque[tuple[float | None, np.ndarray]] = deque()
+        self.frames = 0  # rows received
+
+    def add(self, rows: np.ndarray, traces: list[tuple[float | None, np.ndarray]]) -> None:
+        """The tracker's new rows (sin and cos of the beat phase in columns 2 and 3) and settled beats."""
+        for row in rows:
+            self.rows.append((self.frames, float(row[2]), float(row[3])))
+            self.frames += 1
+        self.traces.extend(traces)
+
+    def advance(self, newest: int) -> None:
+        """Give the clock what the music up to frame ``newest`` told."""
+        while self.rows and self.rows[0][0] <= newest:
+            self.clock.update(*self.rows.popleft())
+        latest = None
+        while self.traces and (self.traces[0][0] is None or self.traces[0][0] <= newest / self.clock.fps + 1e-9):
+            latest = self.traces.popleft()
+        if latest is not None:
+            self.clock.settle(latest[1])
 
 
 class LiveAccents:

@@ -145,12 +145,17 @@ class LiveFeatures:
         self.beat_rows = []
         return np.concatenate(rows) if rows else np.zeros((0, 4), np.float32)
 
-    def settled_beats(self) -> np.ndarray | None:
-        """The beat tracker's beats placed with hindsight (s), when it offers them (a ``settled_beats()``
-        method, as dance-audio's streaming ``beats`` has); None otherwise."""
+    def take_settled(self) -> list[tuple[float | None, np.ndarray]]:
+        """The beat tracker's beats placed with hindsight since the last call, in order: ``(seconds of music
+        they were placed with, beats in seconds)``, from a tracker that offers them (``take_settled()``, as
+        dance-audio's streaming ``beats`` has; one with only ``settled_beats()`` gives its latest, heard
+        ``None``: when is not known); empty otherwise."""
         part = self.parts[self.beat_part[0]][self.beat_part[1]] if self.beat_part is not None else self.tracker
+        take = getattr(part, "take_settled", None)
+        if take is not None:
+            return [(float(heard), np.array(times, np.float64)) for heard, times in take()]
         settled = getattr(part, "settled_beats", None)
-        return np.array(settled(), np.float64) if settled is not None else None
+        return [(None, np.array(settled(), np.float64))] if settled is not None else []
 
     def _ready(self) -> dict[str, np.ndarray]:
         k = min(len(x) for xs in self.pending.values() for x in xs)

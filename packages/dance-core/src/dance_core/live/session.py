@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from dance_core.errors import DanceError
-from dance_core.live.beat_lock import BeatClock
+from dance_core.live.beat_lock import BeatClock, BeatFeed
 from dance_core.live.features import LiveFeatures
 from dance_core.live.generator import LiveGenerator
 from dance_core.live.pose import LivePoses, Pose, PoseDecoder
@@ -112,9 +112,9 @@ class LiveSession:
         self.decoder = PoseDecoder(composer.checkpoint, composer.registry, self.fps)
         tracked = self.features.beat_part is not None or self.features.tracker is not None
         self.clock = BeatClock(self.fps) if recipe.compose.beat_align and tracked else None
+        self.feed = BeatFeed(self.clock) if self.clock is not None else None
         self.poses = LivePoses(self.decoder, recipe.compose.ground, self.clock, rest=silence is not None)
         self.gate = SilenceGate(self.fps, source.rate, silence if self.poses.rest is not None else None)
-        self.beat_frames = 0  # beat tracker rows given to the clock
         self.threads = generation_threads(composer.model, 1, composer.device, recipe.compose.threads)
         self.max_lag = max(1, int(round(max_lag * self.fps)))
         self.stats = LiveStats()
@@ -139,7 +139,7 @@ class LiveSession:
                 arrived = time.perf_counter()
                 samples += len(block)
                 self.gate.push(block)  # before the features: a frame's level is known when the frame is
-                self.inbox.put((self.features.push(block), self.features.take_beats(), self.features.settled_beats(),
+                self.inbox.put((self.features.push(block), self.features.take_beats(), self.features.take_settled(),
                                 arrived))
                 if self.stop.is_set():
                     break
@@ -147,7 +147,7 @@ class LiveSession:
                     self.stats.stopped = "every output closed"
                     break
             else:
-                self.inbox.put((self.features.finish(), self.features.take_beats(), self.features.settled_beats(),
+                self.inbox.put((self.features.finish(), self.features.take_beats(), self.features.take_settled(),
                                 time.perf_counter()))
         except KeyboardInterrupt:
             self.stats.stopped = "interrupted"
@@ -279,23 +279,21 @@ class LiveSession:
             self.error = exc
             self.stop.set()
 
-    def _beats(self, rows: np.ndarray, settled: np.ndarray | None) -> None:
-        """The beat tracker's rows (sin and cos of the beat phase in columns 2 and 3) and its settled beats
-        (None when it has none) to the clock."""
-        if self.clock is not None:
-            for row in rows:
-                self.clock.update(self.beat_frames, float(row[2]), float(row[3]))
-                self.beat_frames += 1
-            if settled is not None:
-                self.clock.settle(settled)
+    def _beats(self, rows: np.ndarray, settled: list) -> None:
+        """The beat tracker's rows and settled beats, held for the clock until the frames they may inform."""
+        if self.feed is not None:
+            self.feed.add(rows, settled)
 
     def _emit(self, index: int, frame: np.ndarray, first: bool = True) -> None:
-        rest = self.gate.weight(index, self.generator.newest(index) - 1)
+        newest = self.generator.newest(index)  # the newest music frame this frame waited for
+        if self.feed is not None:
+            self.feed.advance(newest)
+        rest = self.gate.weight(index, newest - 1)
         message = frame_message(index, self.fps, self.poses(index, frame, rest))
         for sink in self.sinks:
             sink.send(message)
-        newest = min(self.generator.newest(index), len(self.arrivals) - 1)
-        self.stats.latencies.append(time.perf_counter() - self.arrivals[newest])
+        completed = min(newest, len(self.arrivals) - 1)
+        self.stats.latencies.append(time.perf_counter() - self.arrivals[completed])
         self.stats.times.append(index / self.fps)
         self.stats.first.append(first)
         self.stats.frames += 1
