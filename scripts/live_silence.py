@@ -35,11 +35,13 @@ def rest_spans(y: np.ndarray, rate: int, fps: float, gate=None) -> tuple[float, 
     from dance_core.live.silence import SilenceGate
 
     gate = gate or SilenceGate(fps, rate)
-    block = rate // 10
-    for lo in range(0, len(y), block):
+    block, ahead, weights = rate // 10, 8, []  # ahead: the default model's newest frame less one, past each frame
+    for lo in range(0, len(y), block):  # each frame's weight once its music is heard, as a session asks
         gate.push(y[lo : lo + block])
-    ahead = 8  # the default model's newest frame less one, past each frame
-    rest = np.array([gate.weight(i, i + ahead) for i in range(len(gate.power))]) >= 0.5
+        while len(weights) + ahead < gate.frames:
+            weights.append(gate.weight(len(weights), len(weights) + ahead))
+    weights += [gate.weight(i, gate.frames - 1) for i in range(len(weights), gate.frames)]
+    rest = np.array(weights) >= 0.5
     edges = np.flatnonzero(np.diff(np.r_[0, rest.astype(int), 0])).reshape(-1, 2) / fps
     return float(rest.sum() / fps), [(round(a, 2), round(b, 2)) for a, b in edges]
 
@@ -52,8 +54,8 @@ class FixedFloor:
         from dance_core.live.silence import SilenceGate
 
         class Gate(SilenceGate):
-            def silent(self, frame: int) -> bool:
-                return self.power[frame] < 1e-4  # -40 dBFS
+            def quiet(self, level: float) -> bool:
+                return level < -40.0
 
         return Gate(fps, rate)
 

@@ -11,7 +11,7 @@ import pytest
 
 from dance_core.errors import DataError
 from dance_core.live.rest import RestBlend
-from dance_core.live.silence import AHEAD, EASE_OUT, FLOOR_DB, HOLD, SilenceGate
+from dance_core.live.silence import AHEAD, EASE_OUT, FLOOR_DB, HOLD, MEMORY, SilenceGate
 from dance_core.motion.fk import joint_positions
 from dance_core.motion.grounding import soles
 from dance_core.motion.motion import Motion
@@ -103,6 +103,12 @@ def test_silence_is_quiet_against_the_loudest_second_heard_and_off_means_never()
     gate = SilenceGate(FPS, RATE, None)
     gate.push(np.zeros(RATE * 3, np.float32))
     assert gate.weight(40, 48) == 0.0 and FLOOR_DB == -70.0
+    # hours hold no more than a minute: the silence of the last MEMORY seconds is kept
+    gate = SilenceGate(FPS, RATE)
+    for _ in range(30):
+        gate.push(np.concatenate([_tone(4, -20), _tone(4, -90)]))
+    assert gate.frames == 30 * 8 * FPS and len(gate.silence) == MEMORY * FPS
+    assert gate.weight(int(gate.frames - 0.5 * FPS), gate.frames) > 0 and not gate.silent(0)
 
 
 def _travelling(n: int, skeleton) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -14,6 +14,8 @@ over :data:`EASE_OUT` s (a smoothstep of a linear ramp), which :class:`dance_cor
 from __future__ import annotations
 
 import math
+import threading
+from collections import deque
 
 import numpy as np
 
@@ -23,20 +25,26 @@ FLOOR_DB, RANGE_DB = -70.0, 40.0
 HOLD, AHEAD = 0.5, 0.4
 #: seconds the figure takes to come to rest, and to dance again
 EASE_IN, EASE_OUT = 1.0, 0.6
+#: seconds of frames' silence kept (the frames asked about are within a second or two of the newest)
+MEMORY = 60.0
 
 
 class SilenceGate:
     """``push(samples)`` the audio as it arrives; ``weight(frame, known)`` the rest weight of each output frame,
     in order (frames skipped are stepped over), from 0 (dancing) to 1 (at rest). ``floor``: the silence level
-    in dBFS, None never to rest. One thread pushes while another asks for weights: frames are only appended."""
+    in dBFS, None never to rest. One thread may push while another asks for weights; the last
+    :data:`MEMORY` s of frames are kept, so a session of hours holds no more than a session of minutes."""
 
     def __init__(self, fps: float, rate: int, floor: float | None = FLOOR_DB):
         self.fps, self.rate, self.floor = float(fps), int(rate), floor
         self.samples = 0  # samples heard
-        self.power: list[float] = []  # per music frame completed: mean square
+        self.frames = 0  # music frames completed
         self.partial = np.zeros(0, np.float32)  # samples of the frame under way
-        self.window = 0.0  # the summed power of the last second's frames
-        self.loudest: list[float] = []  # per frame: the loudest second heard by its end (dBFS)
+        second = max(1, int(round(self.fps)))
+        self.recent: deque[float] = deque(maxlen=second)  # the last second's frame powers (mean squares)
+        self.loudest = -math.inf  # the loudest second heard (dBFS)
+        self.silence: deque[bool] = deque(maxlen=max(1, int(round(MEMORY * self.fps))))  # per frame, newest last
+        self.lock = threading.Lock()
         self.ramp, self.frame = 0.0, -1  # the linear ramp and the last frame it was stepped to
         self.rested = 0  # frames with a weight of at least one half
 
@@ -46,33 +54,38 @@ class SilenceGate:
             return
         x = np.concatenate([self.partial, np.asarray(samples, np.float32)])
         self.samples += len(samples)
-        start = len(self.power)
-        base = self._edge(start)  # x[0] is sample `base`
-        while self._edge(len(self.power) + 1) <= self.samples:
-            i = len(self.power)
-            chunk = x[self._edge(i) - base : self._edge(i + 1) - base]
-            self.power.append(float(np.mean(np.square(chunk, dtype=np.float64))) if len(chunk) else 0.0)
-        self.partial = x[self._edge(len(self.power)) - base :]
-        second = max(1, int(round(self.fps)))
-        for i in range(start, len(self.power)):  # the loudest second heard by the end of each frame
-            self.window += self.power[i] - (self.power[i - second] if i >= second else 0.0)
-            level = _db(max(self.window, 0.0) / second) if i >= second - 1 else -math.inf
-            self.loudest.append(max(self.loudest[-1] if self.loudest else -math.inf, level))
+        base = self._edge(self.frames)  # x[0] is sample `base`
+        while self._edge(self.frames + 1) <= self.samples:
+            chunk = x[self._edge(self.frames) - base : self._edge(self.frames + 1) - base]
+            power = float(np.mean(np.square(chunk, dtype=np.float64))) if len(chunk) else 0.0
+            self.recent.append(power)
+            if len(self.recent) == self.recent.maxlen:  # the loudest second heard by the end of this frame
+                self.loudest = max(self.loudest, _db(sum(self.recent) / len(self.recent)))
+            quiet = self.quiet(_db(power))
+            with self.lock:
+                self.silence.append(quiet)
+                self.frames += 1
+        self.partial = x[self._edge(self.frames) - base :]
+
+    def quiet(self, level: float) -> bool:
+        """Whether a frame at ``level`` dBFS, heard now, is silence."""
+        return level < self.floor or level < self.loudest - RANGE_DB
 
     def _edge(self, frame: int) -> int:
         """The first sample of music frame ``frame``."""
         return math.floor(frame * self.rate / self.fps + 1e-9)
 
     def silent(self, frame: int) -> bool:
-        """Whether music frame ``frame`` (heard) is silence."""
-        level = _db(self.power[frame])
-        return level < self.floor or level < self.loudest[frame] - RANGE_DB
+        """Whether music frame ``frame`` (heard, and among the last :data:`MEMORY` s) is silence."""
+        with self.lock:
+            k = frame - (self.frames - len(self.silence))
+            return 0 <= k < len(self.silence) and self.silence[k]
 
     def resting(self, frame: int, known: int) -> bool:
         """Whether the figure should rest at ``frame``: silence from :data:`HOLD` s before it to :data:`AHEAD` s
         after it, up to music frame ``known`` (nothing heard: not)."""
         lo = max(0, frame - int(round(HOLD * self.fps)))
-        hi = min(len(self.power), frame + int(round(AHEAD * self.fps)) + 1, known + 1)
+        hi = min(self.frames, frame + int(round(AHEAD * self.fps)) + 1, known + 1)
         return hi > lo and all(self.silent(i) for i in range(lo, hi))
 
     def weight(self, frame: int, known: int) -> float:
