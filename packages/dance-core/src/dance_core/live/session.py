@@ -12,6 +12,11 @@ earlier in the same frame hop wait up to one hop more (50 ms at 20 fps). The fra
 ``t`` needs the audio up to ``t + music_delay`` (the model's look-ahead: a windowed encoder's
 ``cond_future`` frames, a song-level model's own, and the features' look-ahead), so a figure shown
 with the music lags it by that much unless the audio is delayed too.
+
+A frame is posed knowing what the music up to the newest frame it waited for told, and no more: the beat
+tracker's rows and settled beats through :class:`~dance_core.live.beat_lock.BeatFeed`, the silence through
+:class:`~dance_core.live.silence.SilenceGate` (the figure rests where the music is silent), so the same song
+gives the same dance however fast its audio arrives.
 """
 
 from __future__ import annotations
@@ -236,6 +241,7 @@ class LiveSession:
                 else None, "lag_s": {"mean": round(float(lag.mean()), 3), "max": round(float(lag.max()), 3)}}
 
     def _silence_summary(self) -> dict[str, Any] | None:
+        """The rest in silence: its level and the seconds at rest, why there is none, or None when off."""
         if self.poses.rest_note:
             return {"note": self.poses.rest_note}
         if self.gate.floor is None:
