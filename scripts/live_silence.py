@@ -46,18 +46,15 @@ def rest_spans(y: np.ndarray, rate: int, fps: float, gate=None) -> tuple[float, 
     return float(rest.sum() / fps), [(round(a, 2), round(b, 2)) for a, b in edges]
 
 
-class FixedFloor:
-    """The control gate: silent below -40 dBFS, whatever was heard."""
+def fixed_floor(fps: float, rate: int):
+    """The control gate: a ``SilenceGate`` silent below -40 dBFS, whatever was heard."""
+    from dance_core.live.silence import SilenceGate
 
-    def __new__(cls, fps: float, rate: int):
-        """A ``SilenceGate`` whose silence is the fixed floor."""
-        from dance_core.live.silence import SilenceGate
+    class FixedFloor(SilenceGate):
+        def quiet(self, level: float) -> bool:
+            return level < -40.0
 
-        class Gate(SilenceGate):
-            def quiet(self, level: float) -> bool:
-                return level < -40.0
-
-        return Gate(fps, rate)
+    return FixedFloor(fps, rate)
 
 
 def dance(composer, y: np.ndarray, speed: float, silence: float | None) -> np.ndarray:
@@ -93,7 +90,7 @@ def main() -> None:
     from dance_audio.timing import resample
     from dance_core import get_registry, load_audio
     from dance_core.api import Composer
-    from dance_core.live.silence import AHEAD, EASE_IN, HOLD
+    from dance_core.live.silence import AHEAD, EASE_IN, FLOOR_DB, HOLD
     from dance_core.recipe import load_recipe
 
     torch.set_num_threads(1)
@@ -107,7 +104,7 @@ def main() -> None:
         y = songs[song] = resample(audio.samples, audio.rate, RATE)
         loud, spans = rest_spans(y, RATE, fps)
         quiet, _ = rest_spans(gain * y, RATE, fps)
-        control, _ = rest_spans(gain * y, RATE, fps, FixedFloor(fps, RATE))
+        control, _ = rest_spans(gain * y, RATE, fps, fixed_floor(fps, RATE))
         print(f"{song.stem}: {len(y) / RATE:.0f} s; at rest {loud:.2f} s {spans}; quiet {quiet:.2f} s; "
               f"control (fixed -40 dBFS) quiet {control:.2f} s")
     print("# the dance across pauses: mean joint speed at rest / in music (m/s); fastest joint at the pauses' edges"
@@ -119,7 +116,7 @@ def main() -> None:
         pauses = [(0.0, 6.0), (6.0 + half / RATE, 10.0 + half / RATE)]
         music = [(6.0, 6.0 + half / RATE), (10.0 + half / RATE, len(track) / RATE)]
         row = []
-        for silence in (-70.0, None):
+        for silence in (FLOOR_DB, None):
             p = dance(composer, track, args.speed, silence)
             t = np.arange(len(p) - 1) / fps
             speed = np.linalg.norm(np.diff(p, axis=0), axis=2) * fps  # (T - 1, J)

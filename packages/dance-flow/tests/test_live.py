@@ -299,6 +299,7 @@ def test_the_figure_stands_at_rest_while_the_music_is_silent_and_dances_when_it_
 
     from dance_core.data.features import load_audio
     from dance_core.live.session import LiveSession
+    from dance_core.live.silence import AHEAD, EASE_IN, FLOOR_DB, HOLD
     from dance_core.live.sinks import JsonLinesSink
     from dance_core.live.sources import FileSource
 
@@ -307,7 +308,7 @@ def test_the_figure_stands_at_rest_while_the_music_is_silent_and_dances_when_it_
     path = tmp_path / "pause.wav"
     sf.write(path, song, music.rate)
     speeds, summaries = [], []
-    for silence in (-70.0, None):
+    for silence in (FLOOR_DB, None):
         out = io.BytesIO()
         out.close = lambda: None  # read after the session
         source = FileSource(str(path), composer.registry, composer.recipe.format_options, speed=6.0)
@@ -316,8 +317,6 @@ def test_the_figure_stands_at_rest_while_the_music_is_silent_and_dances_when_it_
         p = np.array([f["positions"] for f in frames])
         speeds.append(np.linalg.norm(np.diff(p, axis=0), axis=2).max(1) * composer.recipe.fps)
     fps = composer.recipe.fps
-    from dance_core.live.silence import AHEAD, EASE_IN, HOLD
-
     pause, playing = slice(int((HOLD + EASE_IN) * fps), int((4.0 - AHEAD) * fps) - 1), slice(int(4.2 * fps), None)
     assert speeds[0][pause].max() < 1e-6 and summaries[0]["silence"]["rested_s"] > 2.0  # still
     assert speeds[1][pause].mean() > 0.1 and summaries[1]["silence"] is None  # off: it dances on

@@ -14,6 +14,7 @@ import numpy as np
 
 from dance_core.errors import DataError
 from dance_core.motion.grounding import GroundingOptions, find_feet, metres_per_unit, soles
+from dance_core.motion.ik import rotation_between
 from dance_core.motion.motion import Motion
 from dance_core.motion.rig_maps import rig_map
 from dance_core.motion.rotations import quat_conj, quat_mul, quat_rotate
@@ -23,20 +24,6 @@ from dance_core.motion.skeleton import Skeleton
 ARM_OUT, ARM_FORWARD = 8.0, 4.0
 #: degrees a forearm bends forward of its upper arm
 ELBOW_BEND = 14.0
-
-
-def turn_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The shortest rotation (xyzw) taking direction ``a`` onto direction ``b``."""
-    a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
-    axis = np.cross(a, b)
-    s, c = float(np.linalg.norm(axis)), float(np.clip(a @ b, -1.0, 1.0))
-    if s < 1e-9:
-        if c > 0:
-            return np.array([0.0, 0.0, 0.0, 1.0])
-        other = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-        return np.append(other / np.linalg.norm(other), 0.0)
-    angle = np.arctan2(s, c)
-    return np.append(axis / s * np.sin(angle / 2), np.cos(angle / 2))
 
 
 def _tilted(down: np.ndarray, toward: np.ndarray, degrees: float) -> np.ndarray:
@@ -64,10 +51,10 @@ def standing_pose(skeleton: Skeleton, where: str = "") -> tuple[np.ndarray, np.n
         upper = _tilted(_tilted(down, outward, ARM_OUT), forward, ARM_FORWARD)
         lower = _tilted(upper, forward - (forward @ upper) * upper, ELBOW_BEND)
         parent = world[skeleton.parents[shoulder]]
-        turn = turn_between(rest[elbow] - rest[shoulder], upper)  # world, from the rest (identity) frames
+        turn = rotation_between(rest[elbow] - rest[shoulder], upper)  # world, from the rest (identity) frames
         rotations[shoulder] = quat_mul(quat_conj(parent), turn)
         now = quat_rotate(turn, rest[wrist] - rest[elbow])
-        world_elbow = quat_mul(turn_between(now, lower), turn)
+        world_elbow = quat_mul(rotation_between(now, lower), turn)
         rotations[elbow] = quat_mul(quat_conj(turn), world_elbow)
         world[shoulder], world[elbow] = turn, world_elbow
     root = np.array(rest[0], np.float64)
