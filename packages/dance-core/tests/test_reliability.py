@@ -359,7 +359,13 @@ def test_output_set_commits_together_sweeps_stale_temps_and_uses_the_umask(tmp_p
     assert sweep_stale_temps(tmp_path, ["x.npz"]) == []
 
 
-SLOW_WRITER = """
+# The children wait in short sleeps, never one long one: a signal whose C handler runs after the
+# interpreter's last check but before ``time.sleep`` enters the kernel is only acted on when that sleep
+# ends (CPython checks for signals after the system call, not before). A 60-s sleep made that window a
+# 60-s hang on a loaded machine; 0.05-s sleeps bound it.
+WAIT = "for _ in range(1200): time.sleep(0.05)"
+
+SLOW_WRITER = f"""
 import sys, time
 from pathlib import Path
 from dance_core.atomic import OutputSet, atomic_path
@@ -368,13 +374,13 @@ if sys.argv[2] == "atomic":
     with atomic_path(out / "song.bvh") as tmp:
         tmp.write_bytes(b"")
         print("ready", flush=True)
-        time.sleep(60)
+        {WAIT}
 else:
     with OutputSet() as files:
         files.path(out / "song.bvh").write_bytes(b"motion")
         files.path(out / "song.html")
         print("ready", flush=True)
-        time.sleep(60)
+        {WAIT}
 """
 
 
@@ -534,13 +540,13 @@ def test_sigkill_during_compose_then_a_retry_writes_the_whole_set(tiny_recipe, c
 
 
 def test_install_sigterm_handler_turns_sigterm_into_an_interrupt(tmp_path):
-    script = textwrap.dedent("""
+    script = textwrap.dedent(f"""
         import time
         from dance_core.atomic import install_sigterm_handler
         install_sigterm_handler()
         try:
             print("ready", flush=True)
-            time.sleep(60)
+            {WAIT}
         except KeyboardInterrupt as exc:
             print(type(exc).__name__, exc)
     """)
