@@ -15,6 +15,7 @@ from dance_core.live.silence import AHEAD, EASE_OUT, FLOOR_DB, HOLD, MEMORY, Sil
 from dance_core.motion.fk import joint_positions
 from dance_core.motion.grounding import soles
 from dance_core.motion.motion import Motion
+from dance_core.motion.rig_maps import rig_map
 from dance_core.motion.rotations import expmap_to_quat, quat_mul, yaw_quat
 from dance_core.motion.skeletons import body25, dance24, transflower21
 from dance_core.motion.standing import standing_pose
@@ -34,8 +35,6 @@ def _rigs():
 
 @pytest.mark.parametrize("skeleton", _rigs(), ids=lambda s: s.name)
 def test_standing_hangs_the_arms_by_the_sides_and_stands_on_the_floor(skeleton):
-    from dance_core.motion.rig_maps import rig_map
-
     root, rotations = standing_pose(skeleton)
     p = joint_positions(skeleton, root, rotations)
     j = rig_map(skeleton).joints
@@ -130,13 +129,15 @@ def test_poses_come_to_rest_where_they_are_and_dance_on_from_there_without_a_jum
     ramp = np.clip(np.r_[np.zeros(20), np.arange(1, 21) / 20, np.ones(60), 1 - np.arange(1, 9) / 8, np.zeros(52)],
                    0, 1)
     blend = RestBlend(skeleton)
-    out = [blend(root[i], rotations[i], positions[i], ramp[i]) for i in range(n)]
+    out = [blend(root[i], rotations[i], positions[i], ramp[i], i / 30.0) for i in range(n)]
     shown = np.stack([o[2] for o in out])
     assert np.array_equal(shown[:20], positions[:20])  # no rest yet: unchanged
-    still = shown[40:100]
-    assert np.abs(still - still[0]).max() < 1e-9  # at rest the figure stands still while the dance travels on
+    still, j = shown[40:100], rig_map(skeleton).joints
+    ankles = [j["L_Ankle"], j["R_Ankle"]]
+    assert np.abs(still[:, ankles] - still[0, ankles]).max() < 2e-3  # at rest it stands where it is; the dance goes on
+    assert 1e-4 < np.abs(still - still[0]).max() < 0.03  # breathing and swaying a little (dance_core.motion.idle)
     stand_root, stand = standing_pose(skeleton)
-    assert still[0][:, 1].min() == pytest.approx(joint_positions(skeleton, stand_root, stand)[:, 1].min(), abs=1e-9)
+    assert still[0][:, 1].min() == pytest.approx(joint_positions(skeleton, stand_root, stand)[:, 1].min(), abs=2e-3)
     steps = np.linalg.norm(np.diff(shown, axis=0), axis=2).max(1)
     danced = np.linalg.norm(np.diff(positions, axis=0), axis=2).max(1)
     assert steps.max() < 2.5 * danced.max()  # no jump going to rest or coming back

@@ -291,7 +291,7 @@ def test_beat_locked_poses_are_grounded_with_a_look_ahead_inside_the_lag(compose
 
 
 def test_the_figure_stands_at_rest_while_the_music_is_silent_and_dances_when_it_plays(composer, tmp_path):
-    """Four seconds of silence, then music: the figure comes to rest standing (the model dances on beneath) and
+    """Four seconds of silence, then music: the figure comes to rest standing at ease (the model dances on beneath) and
     dances with the music; with ``silence=None`` (``--silence off``) it dances through the silence."""
     import io
 
@@ -318,7 +318,7 @@ def test_the_figure_stands_at_rest_while_the_music_is_silent_and_dances_when_it_
         speeds.append(np.linalg.norm(np.diff(p, axis=0), axis=2).max(1) * composer.recipe.fps)
     fps = composer.recipe.fps
     pause, playing = slice(int((HOLD + EASE_IN) * fps), int((4.0 - AHEAD) * fps) - 1), slice(int(4.2 * fps), None)
-    assert speeds[0][pause].max() < 1e-6 and summaries[0]["silence"]["rested_s"] > 2.0  # still
+    assert 1e-4 < speeds[0][pause].max() < 0.08 and summaries[0]["silence"]["rested_s"] > 2.0  # at ease, not dancing
     assert speeds[1][pause].mean() > 0.1 and summaries[1]["silence"] is None  # off: it dances on
     assert speeds[0][playing].mean() > 0.3  # and dances when the music plays
 

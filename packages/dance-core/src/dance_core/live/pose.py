@@ -140,17 +140,18 @@ class LivePoses:
             self.indices.append(index)  # the frame given back is the one pushed `delay` calls ago (drops skip indices)
             grounded = self.grounding.push(root, rotations)
             if grounded is None:  # the lock holds the first pose meanwhile
-                return self._shown(*self.grounding.peek(), rest)
+                return self._shown(*self.grounding.peek(), rest, index)
             made, (root, rotations, positions) = self.indices[0], grounded
         elif self.grounding is not None and rotations is not None:
             root, rotations, positions = self.grounding(root, rotations)
         if self.lock is not None:  # as offline: the accents of the feet as they will be seen
             self.lock.push(made, root, rotations, positions)
             root, rotations, positions = self.lock.pose(index)
-        return self._shown(root, rotations, positions, rest)
+        return self._shown(root, rotations, positions, rest, index)
 
-    def _shown(self, root: np.ndarray, rotations: np.ndarray | None, positions: np.ndarray, rest: float) -> Pose:
-        """The pose as sent (metres), blended toward rest."""
+    def _shown(self, root: np.ndarray, rotations: np.ndarray | None, positions: np.ndarray, rest: float,
+               index: int) -> Pose:
+        """The pose of music frame ``index`` as sent (metres), blended toward rest."""
         if self.rest is not None and rotations is not None:
-            root, rotations, positions = self.rest(root, rotations, positions, rest)
+            root, rotations, positions = self.rest(root, rotations, positions, rest, index / self.decoder.fps)
         return Pose(root * self.scale, rotations, positions * self.scale)
