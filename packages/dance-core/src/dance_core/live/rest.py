@@ -35,7 +35,7 @@ class RestBlend:
         self.place: np.ndarray | None = None  # the figure's ground position (x, z), once it has rested
         self.last: tuple[np.ndarray, float] | None = None  # the dance's previous ground position and heading
 
-    def __call__(self, root: np.ndarray, rotations: np.ndarray, positions: np.ndarray, w: float, t: float = 0.0
+    def __call__(self, root: np.ndarray, rotations: np.ndarray, positions: np.ndarray, w: float, t: float
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The pose shown at rest weight ``w`` in ``[0, 1]`` at ``t`` seconds."""
         ground, yaw = root[[0, 2]].astype(np.float64), float(heading(rotations[0]))
